@@ -1,0 +1,73 @@
+"""mbimpact — Ivanov's constructive model of impact on rough surfaces for multibody systems.
+
+The pipeline: Pinocchio (A(q), J(q)) → metric (N, Delassus W) → roughness (facets
+and their measure) → law (the flux-weighted average (2.8)) → result (I by (1.1)).
+"""
+
+from .contact import PointContact, impact
+from .errors import (
+    FrameNotFoundError,
+    ImpactError,
+    NameNotFoundError,
+    NoFacingFacetError,
+    NoImpactError,
+    NonFiniteError,
+    NotPositiveDefiniteError,
+    ParameterError,
+    RobotNotFoundError,
+    RoughnessError,
+    ShapeError,
+)
+from .laws import AccuracyWarning, ImpactLaw, NewtonLaw, RoughLaw
+from .mechanism import Mechanism
+from .metric import ContactMetric, local_basis
+from .restitution import e_from_k, impact_duration, k_from_e
+from .result import ImpactResult
+from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
+from .roughness import Cone, Facets, Roughness, Sawtooth, Smooth
+
+__version__ = "0.1.0"
+
+__all__ = [
+    # pipeline
+    "Mechanism",
+    "PointContact",
+    "impact",
+    "ContactMetric",
+    "local_basis",
+    # roughness measures
+    "Roughness",
+    "Smooth",
+    "Sawtooth",
+    "Cone",
+    "Facets",
+    # laws and results
+    "ImpactLaw",
+    "NewtonLaw",
+    "RoughLaw",
+    "ImpactResult",
+    "AccuracyWarning",
+    # Kelvin–Voigt restitution
+    "e_from_k",
+    "k_from_e",
+    "impact_duration",
+    # models
+    "robot_names",
+    "robot_urdf",
+    "model_names",
+    "model_path",
+    "models_dir",
+    # errors
+    "ImpactError",
+    "ShapeError",
+    "NonFiniteError",
+    "NotPositiveDefiniteError",
+    "ParameterError",
+    "RoughnessError",
+    "NameNotFoundError",
+    "RobotNotFoundError",
+    "FrameNotFoundError",
+    "NoImpactError",
+    "NoFacingFacetError",
+    "__version__",
+]

@@ -1,0 +1,120 @@
+"""Point contacts of a mechanism with a plane, and :func:`impact` on them.
+
+A contact names the frame (and optionally a point fixed to it) that hits a
+surface with base normal n⁰. :func:`impact` assembles the pipeline on
+Pinocchio: A(q) and J(q) → the law → the result by (1.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validate import as_array
+from .errors import ShapeError
+from .laws import ImpactLaw
+from .mechanism import Mechanism
+from .metric import ContactMetric, local_basis
+from .result import ImpactResult
+
+__all__ = ["PointContact", "impact"]
+
+
+def _unit(name: str, x: ArrayLike) -> NDArray[np.float64]:
+    a = as_array(name, x, 1, (3,))
+    norm = float(np.linalg.norm(a))
+    if norm == 0.0:
+        raise ShapeError(f"{name} is the zero vector")
+    return a / norm
+
+
+@dataclass(frozen=True, eq=False)
+class PointContact:
+    """A point of the mechanism striking a surface with world normal ``normal``.
+
+    Parameters
+    ----------
+    frame : str
+        Frame the contact point is attached to.
+    normal : array_like, shape (3,)
+        Base normal n⁰ of the surface in the world frame (normalised here).
+    point : array_like, shape (3,)
+        Offset of the contact point from the frame origin, in the frame's axes.
+    tangent : array_like, shape (3,), optional
+        First tangent direction of the local facet frame (projected orthogonal to
+        n⁰). For a spatial contact it orients anisotropic facet sets; for a planar
+        contact (a law whose roughness is 2-D) it spans, with n⁰, the plane of
+        motion. Default: the world axis least aligned with n⁰, projected.
+    """
+
+    frame: str
+    normal: NDArray[np.float64] = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    point: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    tangent: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.frame, str):
+            raise ShapeError(f"frame must be a frame name (str), got {type(self.frame).__name__}")
+        n0 = _unit("normal", self.normal)
+        object.__setattr__(self, "normal", n0)
+        object.__setattr__(self, "point", as_array("point", self.point, 1, (3,)))
+        if self.tangent is not None:
+            t = _unit("tangent", self.tangent)
+            t = t - (t @ n0) * n0
+            if np.linalg.norm(t) < 1e-9:
+                raise ShapeError("tangent is parallel to the normal")
+            object.__setattr__(self, "tangent", t / np.linalg.norm(t))
+
+    def basis(self) -> NDArray[np.float64]:
+        """World rotation (3, 3): columns t₁, t₂, n⁰."""
+        if self.tangent is None:
+            return local_basis(self.normal, 3)
+        return np.column_stack([self.tangent, np.cross(self.normal, self.tangent), self.normal])
+
+    def jacobian(self, mech: Mechanism, q: NDArray[np.float64], d: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Contact Jacobian and contact frame for a d-dimensional contact space.
+
+        Returns
+        -------
+        J : ndarray, shape (d, nv)
+            World-aligned for d = 3; rows (t₁, n⁰) of the plane of motion for d = 2.
+        frame : ndarray, shape (d, d)
+            Rotation whose last column is n⁰ in the coordinates of ``J``.
+        """
+        Jp = mech.point_jacobian(q, self.frame, self.point)
+        R = self.basis()
+        if d == 3:
+            return Jp, R
+        if d == 2:
+            return R[:, [0, 2]].T @ Jp, np.eye(2)
+        raise ShapeError(f"contact-space dimension must be 2 or 3, got {d}")
+
+
+def impact(
+    mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: PointContact, law: ImpactLaw
+) -> ImpactResult:
+    """Impact of a mechanism at configuration ``q`` with velocity ``v`` on a contact.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    q : array_like, shape (nq,)
+        Configuration (free-flyer quaternions normalised).
+    v : array_like, shape (nv,)
+        Pre-impact generalised velocity.
+    contact : PointContact
+    law : ImpactLaw
+        :class:`NewtonLaw`, :class:`RoughLaw`, ...
+
+    Returns
+    -------
+    ImpactResult
+        With ``A = pin.crba(q)`` and ``J`` the contact Jacobian at ``q``.
+    """
+    q, v = mech.check_state(q, v)
+    d = law.dim or 3
+    J, R = contact.jacobian(mech, q, d)
+    metric = ContactMetric.from_arrays(mech.mass_matrix(q), J)
+    return law.apply_metric(metric, v, R)

@@ -1,0 +1,177 @@
+"""A Pinocchio model and the two quantities the impact laws need from it.
+
+From a mechanism at configuration q the laws need the mass matrix A(q)
+(``pin.crba``, armature included) and the world-aligned translational Jacobian
+of a contact point. Models are built from URDF kinematics and inertias only:
+no meshes are loaded.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from ._validate import as_array
+from .errors import FrameNotFoundError, ParameterError, RobotNotFoundError
+from .robots import model_path, robot_urdf
+
+__all__ = ["Mechanism"]
+
+
+@dataclass(frozen=True, eq=False)
+class Mechanism:
+    """A Pinocchio model with its workspace.
+
+    Attributes
+    ----------
+    model : pinocchio.Model
+        Kinematics and inertias.
+    name : str
+        Human-readable name (robot name or URDF stem).
+    source : pathlib.Path or None
+        URDF the model was built from.
+    """
+
+    model: Any
+    name: str = "mechanism"
+    source: Path | None = None
+    data: Any = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, pin.Model):
+            raise ParameterError(f"model must be a pinocchio.Model, got {type(self.model).__name__}")
+        object.__setattr__(self, "data", self.model.createData())
+
+    # ------------------------------------------------------------ constructors
+    @classmethod
+    def from_urdf(cls, path: str | Path, floating: bool = False, name: str | None = None) -> Mechanism:
+        """Build from a URDF file (kinematics and inertias, no meshes).
+
+        Parameters
+        ----------
+        path : str or Path
+            URDF file.
+        floating : bool
+            Add a free-flyer root joint (nq = nv + 1 for its quaternion).
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise RobotNotFoundError(f"URDF file {str(path)!r} not found")
+        try:
+            if floating:
+                model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+            else:
+                model = pin.buildModelFromUrdf(str(path))
+        except (RuntimeError, ValueError) as exc:
+            raise RobotNotFoundError(f"could not parse URDF {str(path)!r}: {exc}") from exc
+        return cls(model, name or path.stem, path)
+
+    @classmethod
+    def from_robot(cls, name: str, floating: bool | None = None) -> Mechanism:
+        """An example-robot-data robot by name (``"ur5"``, ``"panda"``, ``"solo12"``, ...).
+
+        Parameters
+        ----------
+        floating : bool, optional
+            Override the robot's default (legged and flying robots float).
+        """
+        path, default_floating = robot_urdf(name)
+        return cls.from_urdf(path, default_floating if floating is None else floating, name)
+
+    @classmethod
+    def from_model(cls, name: str, floating: bool = False) -> Mechanism:
+        """One of mbimpact's own models under ``models/`` (``"point_mass_2d"``, ...)."""
+        return cls.from_urdf(model_path(name), floating, name)
+
+    # ------------------------------------------------------------ dimensions
+    @property
+    def nq(self) -> int:
+        """Configuration dimension."""
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Velocity (tangent) dimension."""
+        return int(self.model.nv)
+
+    @property
+    def frame_names(self) -> list[str]:
+        """Names of all frames."""
+        return [f.name for f in self.model.frames]
+
+    def frame_id(self, frame: str) -> int:
+        """Index of a frame, with the close matches in the error if it is unknown."""
+        if not self.model.existFrame(frame):
+            names = self.frame_names
+            close = difflib.get_close_matches(frame, names, n=5, cutoff=0.5)
+            close += [n for n in names if frame.lower() in n.lower() and n not in close]
+            hint = f"frames with {frame!r} or close to it: {', '.join(close[:8])}" if close else (
+                f"{len(names)} frames, e.g. {', '.join(names[-5:])}"
+            )
+            raise FrameNotFoundError(f"frame {frame!r} not found in {self.name}; {hint}")
+        return int(self.model.getFrameId(frame))
+
+    # ------------------------------------------------------------ states
+    def neutral(self) -> NDArray[np.float64]:
+        """Neutral configuration (zeros, identity quaternions), shape (nq,)."""
+        return pin.neutral(self.model)
+
+    def random_configuration(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """A seeded random configuration within joint limits (±π where unbounded)."""
+        lo = np.where(np.isfinite(self.model.lowerPositionLimit), self.model.lowerPositionLimit, -np.pi)
+        hi = np.where(np.isfinite(self.model.upperPositionLimit), self.model.upperPositionLimit, np.pi)
+        lo, hi = np.maximum(lo, -np.pi), np.minimum(hi, np.pi)
+        hi = np.maximum(lo, hi)
+        x = rng.uniform(lo, hi)
+        return pin.normalize(self.model, x)
+
+    def check_state(self, q: ArrayLike, v: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Validate ``q`` (nq,) and ``v`` (nv,); quaternions must be normalised."""
+        q = as_array("q", q, 1, (self.nq,))
+        v = as_array("v", v, 1, (self.nv,))
+        if not pin.isNormalized(self.model, q, 1e-9):
+            raise ParameterError(
+                "q is not a valid configuration: a quaternion or unit-complex block is not normalised; "
+                "use pinocchio.normalize(model, q)"
+            )
+        return q, v
+
+    # ------------------------------------------------------------ dynamics
+    def mass_matrix(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A(q) from ``pin.crba`` (armature included), full symmetric, shape (nv, nv)."""
+        return pin.crba(self.model, self.data, q).copy()
+
+    def point_jacobian(
+        self, q: NDArray[np.float64], frame: str, point: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
+        """World-aligned translational Jacobian of a point fixed to a frame, shape (3, nv).
+
+        Parameters
+        ----------
+        frame : str
+            Frame the point is attached to.
+        point : ndarray, shape (3,), optional
+            Offset of the point from the frame origin, in the frame's own axes.
+        """
+        fid = self.frame_id(frame)
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        J6 = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        Jp = J6[:3].copy()
+        if point is not None and np.any(point):
+            r = self.data.oMf[fid].rotation @ point  # offset in world axes
+            Jp -= pin.skew(r) @ J6[3:]  # v_p = v_o + ω × r
+        return Jp
+
+    def frame_position(self, q: NDArray[np.float64], frame: str, point: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """World position of a point fixed to a frame, shape (3,)."""
+        fid = self.frame_id(frame)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        M = self.data.oMf[fid]
+        return M.translation + (M.rotation @ point if point is not None else 0.0)

@@ -1,0 +1,140 @@
+"""The A-metric of the paper (2.1) seen from the contact point.
+
+For a contact point with world-aligned translational Jacobian ``J`` (d, n) the
+A-metric normal of a facet with physical unit normal ``m`` is
+N_m = A⁻¹ Jᵀ m / sqrt(mᵀ W m) with the Delassus matrix W = J A⁻¹ Jᵀ, and its
+flux is (N_m, v) = mᵀ u / sqrt(mᵀ W m) with u = J v (THEORY §3). Everything the
+impact laws need is therefore the factorisation of A once, ``A⁻¹ Jᵀ`` and ``W``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from ._validate import as_array
+from .errors import NotPositiveDefiniteError, ShapeError
+
+__all__ = ["ContactMetric", "local_basis"]
+
+# Relative asymmetry of A tolerated before it is called non-symmetric.
+_SYMMETRY_RTOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class ContactMetric:
+    """Mass matrix, contact Jacobian and the derived Delassus quantities.
+
+    Attributes
+    ----------
+    A : ndarray, shape (n, n)
+        Symmetric positive definite mass matrix A(q).
+    J : ndarray, shape (d, n)
+        World-aligned translational contact Jacobian, d = 2 or 3.
+    AinvJt : ndarray, shape (n, d)
+        A⁻¹ Jᵀ: maps a contact impulse P to the velocity jump, Δv = A⁻¹ Jᵀ P.
+    W : ndarray, shape (d, d)
+        Delassus matrix J A⁻¹ Jᵀ (symmetric positive semidefinite).
+    """
+
+    A: NDArray[np.float64]
+    J: NDArray[np.float64]
+    AinvJt: NDArray[np.float64]
+    W: NDArray[np.float64]
+
+    @classmethod
+    def from_arrays(cls, A: ArrayLike, J: ArrayLike) -> ContactMetric:
+        """Validate ``A`` and ``J`` and factorise ``A`` once.
+
+        Raises
+        ------
+        ShapeError, NonFiniteError, NotPositiveDefiniteError
+        """
+        A = as_array("A", A, 2)
+        n = A.shape[0]
+        if A.shape != (n, n) or n == 0:
+            raise ShapeError(f"A must be a non-empty square matrix, got shape {A.shape}")
+        J = as_array("J", J, 2)
+        if J.shape[0] not in (2, 3) or J.shape[1] != n:
+            raise ShapeError(f"J must have shape (d, {n}) with d = 2 or 3, got {J.shape}")
+        scale = float(np.max(np.abs(A)))
+        asym = float(np.max(np.abs(A - A.T)))
+        if asym > _SYMMETRY_RTOL * scale:
+            raise NotPositiveDefiniteError(
+                f"A is not symmetric: max |A - Aᵀ| = {asym:.3g} (max |A| = {scale:.3g})"
+            )
+        try:
+            factor = scipy.linalg.cho_factor(A, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            factor = None
+        if factor is None or not np.all(np.diag(factor[0]) > 0):
+            lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
+            raise NotPositiveDefiniteError(
+                f"A is not positive definite: smallest eigenvalue {lam:.6g} (must be > 0)"
+            )
+        AinvJt = scipy.linalg.cho_solve(factor, J.T, check_finite=False)
+        return cls.from_factorised(A, J, AinvJt)
+
+    @classmethod
+    def from_factorised(
+        cls, A: NDArray[np.float64], J: NDArray[np.float64], AinvJt: NDArray[np.float64]
+    ) -> ContactMetric:
+        """Build from already validated arrays and a precomputed A⁻¹Jᵀ."""
+        W = J @ AinvJt
+        W = 0.5 * (W + W.T)  # exact symmetry; rounding would otherwise leak into mᵀWm
+        for arr in (A, J, AinvJt, W):
+            arr.flags.writeable = False
+        return cls(A, J, AinvJt, W)
+
+    @property
+    def d(self) -> int:
+        """Dimension of contact space (2 or 3)."""
+        return self.J.shape[0]
+
+    @property
+    def n(self) -> int:
+        """Number of generalised velocities."""
+        return self.A.shape[0]
+
+
+def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
+    """Orthonormal contact basis whose last column is the base normal n⁰.
+
+    Parameters
+    ----------
+    frame : array_like, shape (d,) or (d, d)
+        Either the base normal n⁰ (normalised here; the tangent directions are
+        then an arbitrary right-handed completion) or a rotation whose last
+        column is n⁰ (needed when the facet set is anisotropic).
+    d : int
+        Contact-space dimension, 2 or 3.
+
+    Returns
+    -------
+    ndarray, shape (d, d)
+        Rotation R: local facet coordinates → world-aligned contact coordinates.
+    """
+    f = as_array("frame", frame, np.ndim(frame))
+    if f.shape == (d,):
+        norm = float(np.linalg.norm(f))
+        if norm == 0.0:
+            raise ShapeError("the base normal n0 is the zero vector")
+        n0 = f / norm
+        if d == 2:
+            return np.array([[n0[1], n0[0]], [-n0[0], n0[1]]])
+        axis = np.eye(3)[int(np.argmin(np.abs(n0)))]
+        t1 = axis - (axis @ n0) * n0
+        t1 /= np.linalg.norm(t1)
+        return np.column_stack([t1, np.cross(n0, t1), n0])
+    if f.shape == (d, d):
+        err = float(np.max(np.abs(f.T @ f - np.eye(d))))
+        if err > 1e-9:
+            raise ShapeError(f"frame is not a rotation matrix: max |RᵀR - I| = {err:.3g}")
+        return f.copy()
+    raise ShapeError(
+        f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}), "
+        f"to match J with {d} rows; got shape {f.shape}"
+    )

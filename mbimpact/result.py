@@ -1,0 +1,117 @@
+"""The outcome of one impact, able to check itself."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["ImpactResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactResult:
+    """Velocities and impulses of one impact, Lagrange's equations (1.1).
+
+    Attributes
+    ----------
+    v_minus, v_plus : ndarray, shape (n,)
+        Generalised velocity before and after the impact.
+    dv : ndarray, shape (n,)
+        Velocity jump Δv = A⁻¹ Jᵀ P (kept separately: v₊ − v₋ would lose digits
+        when the jump is small beside the velocity).
+    P : ndarray, shape (d,)
+        Contact impulse in world-aligned contact coordinates; I = Jᵀ P.
+    u_minus, u_plus : ndarray, shape (d,)
+        Contact-point velocity J v before and after.
+    n0 : ndarray, shape (d,)
+        Unit base normal.
+    A : ndarray, shape (n, n)
+        The mass matrix the impact was computed with.
+    J : ndarray, shape (d, n)
+        The contact Jacobian.
+    law : str
+        Description of the law that produced the result.
+    error_estimate : float
+        Estimated relative error of ``P`` from the averaging quadrature
+        (0 for laws and roughness measures that are integrated exactly).
+    nodes : int
+        Number of facet nodes in the final quadrature (1 for Newton's law).
+    """
+
+    v_minus: NDArray[np.float64]
+    v_plus: NDArray[np.float64]
+    dv: NDArray[np.float64]
+    P: NDArray[np.float64]
+    u_minus: NDArray[np.float64]
+    u_plus: NDArray[np.float64]
+    n0: NDArray[np.float64]
+    A: NDArray[np.float64]
+    J: NDArray[np.float64]
+    law: str
+    error_estimate: float = 0.0
+    nodes: int = 1
+
+    def __post_init__(self) -> None:
+        for name in ("v_minus", "v_plus", "dv", "P", "u_minus", "u_plus", "n0"):
+            getattr(self, name).flags.writeable = False
+
+    @property
+    def I(self) -> NDArray[np.float64]:  # noqa: E743 — the paper's name
+        """Generalised impulse I = A Δv = Jᵀ P, shape (n,), (1.1)."""
+        return self.J.T @ self.P
+
+    @property
+    def P_n(self) -> float:
+        """Normal contact impulse n⁰·P (≥ 0)."""
+        return float(self.n0 @ self.P)
+
+    @property
+    def P_t(self) -> NDArray[np.float64]:
+        """Tangential contact impulse P − (n⁰·P) n⁰, shape (d,)."""
+        return self.P - self.P_n * self.n0
+
+    @property
+    def mu(self) -> float:
+        """Impact friction ratio |P_t| / P_n, read in contact space (3.1)."""
+        pn = self.P_n
+        return float(np.linalg.norm(self.P_t)) / pn if pn > 0 else 0.0
+
+    @property
+    def kappa(self) -> float:
+        """Newton's restitution −(n⁰·u₊)/(n⁰·u₋), (1.2); may exceed 1 (4°)."""
+        return -float(self.n0 @ self.u_plus) / float(self.n0 @ self.u_minus)
+
+    @property
+    def energy_loss(self) -> float:
+        """Kinetic energy lost, T₋ − T₊ (≥ 0 for every law here).
+
+        Computed in contact space as −Pᵀ(u₋ + u₊)/2, which equals
+        ½ v₋ᵀAv₋ − ½ v₊ᵀAv₊ without the cancellation of two large energies.
+        """
+        return -0.5 * float(self.P @ (self.u_minus + self.u_plus))
+
+    @property
+    def T_minus(self) -> float:
+        """Kinetic energy before the impact, ½ v₋ᵀ A v₋."""
+        return 0.5 * float(self.v_minus @ self.A @ self.v_minus)
+
+    @property
+    def T_plus(self) -> float:
+        """Kinetic energy after the impact, ½ v₊ᵀ A v₊."""
+        return 0.5 * float(self.v_plus @ self.A @ self.v_plus)
+
+    @property
+    def residual(self) -> float:
+        """Relative residual of (1.1), |A Δv − Jᵀ P| / |Jᵀ P|."""
+        impulse = self.I
+        scale = float(np.linalg.norm(impulse)) or 1.0
+        return float(np.linalg.norm(self.A @ self.dv - impulse)) / scale
+
+    def summary(self) -> str:
+        """One line with κ, μ, the energy loss and the post-impact contact velocity."""
+        return (
+            f"{self.law}: kappa={self.kappa:.6g} mu={self.mu:.6g} "
+            f"energy_loss={self.energy_loss:.6g} u_plus={np.array2string(self.u_plus, precision=6)}"
+        )

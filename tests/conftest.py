@@ -1,0 +1,71 @@
+"""Shared fixtures and strategies.
+
+Hypothesis profiles: ``ci`` (default, fast) and ``nightly`` (``--hypothesis-profile=nightly``,
+10⁴ examples per property).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+
+settings.register_profile(
+    "ci", max_examples=60, deadline=None, derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "nightly", max_examples=10_000, deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile("ci")
+
+#: example-robot-data robots used in property tests (arms, legged, humanoid, floating).
+ROBOTS = ["ur5", "panda", "solo12", "talos", "go1", "kinova", "double_pendulum", "xarm7", "anymal", "z1", "bolt", "iris"]
+
+
+@functools.lru_cache(maxsize=None)
+def mechanism(name: str) -> mbi.Mechanism:
+    """Robots are loaded once per session (frames and data are reused read-only)."""
+    return mbi.Mechanism.from_robot(name)
+
+
+def last_frame(mech: mbi.Mechanism) -> str:
+    """A frame at the end of the kinematic tree (the last one declared)."""
+    return mech.frame_names[-1]
+
+
+def spd(rng: np.random.Generator, n: int, cond: float = 1e3) -> np.ndarray:
+    """Random symmetric positive definite matrix with condition number ``cond``."""
+    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    return (Q * np.geomspace(1.0, cond, n)) @ Q.T / np.sqrt(cond)
+
+
+def approaching(J: np.ndarray, v: np.ndarray, n0: np.ndarray) -> np.ndarray:
+    """``v`` or ``-v``, whichever makes the contact point approach the surface."""
+    return v if n0 @ J @ v < 0 else -v
+
+
+def random_facets(rng: np.random.Generator, d: int, k: int, max_tilt: float = 1.2) -> mbi.Facets:
+    """K facets with tilts below ``max_tilt`` and random positive weights."""
+    tilt = rng.uniform(0.0, max_tilt, k)
+    if d == 2:
+        side = rng.choice([-1.0, 1.0], k)
+        m = np.column_stack([side * np.sin(tilt), np.cos(tilt)])
+    else:
+        az = rng.uniform(0, 2 * np.pi, k)
+        m = np.column_stack([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
+    return mbi.Facets(m, rng.uniform(0.1, 1.0, k))
+
+
+seeds = st.integers(min_value=0, max_value=2**32 - 1)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(20261121)

@@ -1,0 +1,214 @@
+"""Every documented error: a named subclass of mbi.ImpactError with a useful message."""
+
+import math
+
+import numpy as np
+import pytest
+
+import mbimpact as mbi
+
+I2, I3 = np.eye(2), np.eye(3)
+V2 = np.array([0.3, -1.0])
+LAW2 = mbi.RoughLaw(mbi.Sawtooth(0.3), 0.5)
+
+
+def test_tree_is_rooted_in_value_error():
+    for name in mbi.errors.__all__:
+        cls = getattr(mbi, name)
+        assert issubclass(cls, mbi.ImpactError) and issubclass(cls, ValueError)
+
+
+@pytest.mark.parametrize(
+    "A, J, v, frame, match",
+    [
+        (np.eye(2, 3), I2, V2, [0, 1], "square"),
+        (I2, np.eye(2, 3), V2, [0, 1], r"shape \(d, 2\)"),
+        (I2, np.eye(4, 2), V2, [0, 1], "d = 2 or 3"),
+        (I2, I2, [0.3, -1.0, 0.0], [0, 1], "v has shape"),
+        (I2, I2, V2, [0, 0, 1], "frame must be"),
+        (np.ones(2), I2, V2, [0, 1], "2 dimension"),
+        (I2, I2, [[0.3, -1.0]], [0, 1], "1 dimension"),
+    ],
+)
+def test_wrong_shapes(A, J, v, frame, match):
+    with pytest.raises(mbi.ShapeError, match=match):
+        LAW2.apply(A, J, v, frame)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize("where", ["A", "J", "v", "frame"])
+def test_non_finite_anywhere(bad, where):
+    args = {"A": I2.copy(), "J": I2.copy(), "v": V2.copy(), "frame": np.array([0.0, 1.0])}
+    args[where].flat[0] = bad
+    with pytest.raises(mbi.NonFiniteError, match=where):
+        LAW2.apply(**args)
+
+
+def test_not_symmetric():
+    with pytest.raises(mbi.NotPositiveDefiniteError, match="not symmetric"):
+        LAW2.apply([[1.0, 0.5], [0.0, 1.0]], I2, V2, [0, 1])
+
+
+@pytest.mark.parametrize("A, lam", [([[1.0, 2.0], [2.0, 1.0]], "-1"), ([[0.0, 0.0], [0.0, 1.0]], "0")])
+def test_not_positive_definite_reports_smallest_eigenvalue(A, lam):
+    with pytest.raises(mbi.NotPositiveDefiniteError, match=f"smallest eigenvalue {lam}"):
+        LAW2.apply(A, I2, V2, [0, 1])
+
+
+@pytest.mark.parametrize("e", [-0.1, 1.0001, math.nan, "x"])
+def test_e_out_of_range(e):
+    with pytest.raises(mbi.ImpactError, match="e"):
+        mbi.RoughLaw(mbi.Smooth(), e)
+    with pytest.raises(mbi.ImpactError):
+        mbi.NewtonLaw(e)
+
+
+@pytest.mark.parametrize("k", [-0.1, 1.5, math.inf])
+def test_k_out_of_range(k):
+    with pytest.raises(mbi.ImpactError, match="k"):
+        mbi.RoughLaw(mbi.Smooth(), k=k)
+    with pytest.raises(mbi.ImpactError):
+        mbi.e_from_k(k)
+
+
+def test_k_equal_one_is_the_limit_e_zero():
+    assert mbi.RoughLaw(mbi.Smooth(), k=1.0).e == 0.0
+
+
+def test_both_or_neither_e_and_k():
+    with pytest.raises(mbi.ParameterError, match="exactly one"):
+        mbi.RoughLaw(mbi.Smooth(), 0.5, k=0.1)
+    with pytest.raises(mbi.ParameterError, match="exactly one"):
+        mbi.RoughLaw(mbi.Smooth())
+    with pytest.raises(mbi.ParameterError, match="exactly one"):
+        mbi.NewtonLaw()
+
+
+@pytest.mark.parametrize("alpha", [-0.01, math.pi / 2, 2.0, math.nan])
+@pytest.mark.parametrize("cls", [mbi.Sawtooth, mbi.Cone])
+def test_alpha_out_of_range(cls, alpha):
+    with pytest.raises(mbi.ImpactError, match="alpha"):
+        cls(alpha)
+
+
+def test_facet_weights():
+    m = np.array([[0.0, 1.0], [math.sin(0.2), math.cos(0.2)]])
+    with pytest.raises(mbi.RoughnessError, match="non-negative"):
+        mbi.Facets(m, [1.0, -0.5])
+    with pytest.raises(mbi.RoughnessError, match="all zero"):
+        mbi.Facets(m, [0.0, 0.0])
+    with pytest.raises(mbi.ShapeError, match="weights"):
+        mbi.Facets(m, [1.0, 1.0, 1.0])
+
+
+def test_facet_normals():
+    with pytest.raises(mbi.RoughnessError, match="unit"):
+        mbi.Facets([[0.0, 1.1]])
+    with pytest.raises(mbi.RoughnessError, match="d = 2 or 3"):
+        mbi.Facets([[0.0, 0.0, 0.0, 1.0]])
+    with pytest.raises(mbi.RoughnessError, match="last component"):
+        mbi.Facets([[1.0, 0.0]])
+    with pytest.raises(mbi.NonFiniteError):
+        mbi.Facets([[math.nan, 1.0]])
+
+
+def test_roughness_of_wrong_dimension():
+    with pytest.raises(mbi.RoughnessError, match="3-D contact space but J has 2 rows"):
+        mbi.RoughLaw(mbi.Cone(0.2), 0.5).apply(I2, I2, V2, [0, 1])
+    with pytest.raises(mbi.RoughnessError, match="2-D"):
+        LAW2.apply(I3, I3, [0.1, 0.0, -1.0], [0, 0, 1])
+    with pytest.raises(mbi.RoughnessError, match="2-D"):
+        mbi.RoughLaw(mbi.Facets([[0.0, 1.0]]), 0.5).apply(I3, I3, [0.1, 0.0, -1.0], [0, 0, 1])
+    with pytest.raises(mbi.RoughnessError, match="Roughness measure"):
+        mbi.RoughLaw(0.3, 0.5)
+
+
+def test_zero_normal():
+    with pytest.raises(mbi.ShapeError, match="zero vector"):
+        LAW2.apply(I2, I2, V2, [0.0, 0.0])
+    with pytest.raises(mbi.ShapeError, match="zero vector"):
+        mbi.PointContact("tool0", normal=(0, 0, 0))
+
+
+def test_frame_not_a_rotation():
+    with pytest.raises(mbi.ShapeError, match="rotation"):
+        LAW2.apply(I2, I2, V2, [[1.0, 0.0], [0.5, 1.0]])
+
+
+def test_unknown_robot_lists_close_matches():
+    with pytest.raises(mbi.RobotNotFoundError, match="close matches: ur5"):
+        mbi.Mechanism.from_robot("ur55")
+    with pytest.raises(mbi.RobotNotFoundError, match="not found"):
+        mbi.Mechanism.from_urdf("/no/such/file.urdf")
+    with pytest.raises(mbi.RobotNotFoundError, match="close matches: .*point_mass_2d"):
+        mbi.Mechanism.from_model("point_mass")
+
+
+def test_unknown_frame_lists_close_matches():
+    mech = mbi.Mechanism.from_robot("ur5")
+    with pytest.raises(mbi.FrameNotFoundError, match="frames with 'tool'.*tool0"):
+        mbi.impact(mech, mech.neutral(), np.ones(6), mbi.PointContact("tool"), mbi.NewtonLaw(0.5))
+
+
+@pytest.mark.parametrize("v", [[0.3, 1.0], [1.0, 0.0], [0.0, 0.0]])
+def test_velocity_not_approaching(v):
+    with pytest.raises(mbi.NoImpactError, match="does not approach"):
+        LAW2.apply(I2, I2, v, [0, 1])
+    with pytest.raises(mbi.NoImpactError):
+        mbi.NewtonLaw(0.5).apply(I2, I2, v, [0, 1])
+
+
+def test_contact_point_that_cannot_move_along_the_normal():
+    J = np.array([[1.0, 0.0], [0.0, 1e-300]])
+    with pytest.raises(mbi.NoImpactError, match="cannot move"):
+        mbi.NewtonLaw(0.5).apply(I2, J, [0.0, -1.0], [0, 1])
+
+
+def test_no_facet_faces_the_velocity():
+    one = mbi.Facets([[math.sin(0.5), math.cos(0.5)]])  # a single tooth facing +x
+    with pytest.raises(mbi.NoFacingFacetError, match="G\\*"):
+        mbi.RoughLaw(one, 0.5).apply(I2, I2, [5.0, -1.0], [0, 1])
+
+
+def test_degenerate_facets_never_produce_nan():
+    """A facet with mᵀWm = 0 (Jᵀm = 0, rank-deficient J) carries no flux and is skipped."""
+    a = 0.4
+    m = np.array([0.0, math.sin(a), math.cos(a)])
+    J = np.array([[1.0, 0.0], [0.0, math.cos(a)], [0.0, -math.sin(a)]])
+    assert np.allclose(J.T @ m, 0)
+    law = mbi.RoughLaw(mbi.Facets([m, [0.0, 0.0, 1.0]]), 0.5)
+    res = law.apply(I2, J, [0.3, 1.0], [0, 0, 1])
+    assert np.all(np.isfinite(res.v_plus))
+    np.testing.assert_allclose(res.v_plus, mbi.NewtonLaw(0.5).apply(I2, J, [0.3, 1.0], [0, 0, 1]).v_plus)
+    # only degenerate facets facing: a named error, not NaN
+    with pytest.raises(mbi.ImpactError):
+        mbi.RoughLaw(mbi.Facets([m]), 0.5).apply(I2, J, [0.3, 1.0], [0, 0, 1])
+
+
+def test_bad_flux_and_rtol():
+    with pytest.raises(mbi.ParameterError, match="flux"):
+        mbi.RoughLaw(mbi.Smooth(), 0.5, flux="area")
+    with pytest.raises(mbi.ParameterError, match="rtol"):
+        mbi.RoughLaw(mbi.Cone(0.1), 0.5, rtol=-1)
+    with pytest.raises(mbi.ParameterError, match="max_nodes"):
+        mbi.RoughLaw(mbi.Cone(0.1), 0.5, max_nodes=2)
+
+
+def test_unreachable_rtol_warns():
+    law = mbi.RoughLaw(mbi.Cone(0.8), 0.5, rtol=0.0, max_nodes=64)
+    with pytest.warns(mbi.AccuracyWarning, match="rtol"):
+        res = law.apply(I3, I3, [2.0, 0.0, -1.0], [0, 0, 1])
+    assert res.nodes == 64 and res.error_estimate >= 0
+
+
+def test_mechanism_needs_a_pinocchio_model():
+    with pytest.raises(mbi.ParameterError, match="pinocchio.Model"):
+        mbi.Mechanism("not a model")
+
+
+def test_bad_state_shapes():
+    mech = mbi.Mechanism.from_robot("ur5")
+    with pytest.raises(mbi.ShapeError, match="q has shape"):
+        mbi.impact(mech, np.zeros(5), np.ones(6), mbi.PointContact("tool0"), mbi.NewtonLaw(0.5))
+    with pytest.raises(mbi.NonFiniteError, match="v"):
+        mbi.impact(mech, np.zeros(6), np.full(6, math.nan), mbi.PointContact("tool0"), mbi.NewtonLaw(0.5))
