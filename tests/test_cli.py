@@ -16,7 +16,8 @@ def test_demo_prints_table_and_writes_csv(tmp_path, capsys):
     assert main(["demo", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "| Newton (frictionless) | 20 |" in text and "rough, cone alpha=0.4" in text
-    rows = list(csv.DictReader(out.open()))
+    with out.open() as fh:
+        rows = list(csv.DictReader(fh))
     assert len(rows) == 8
     newton = [r for r in rows if r["law"].startswith("Newton")]
     assert all(float(r["kappa"]) == pytest.approx(0.8) and float(r["mu"]) == 0.0 for r in newton)
