@@ -4,7 +4,7 @@ The pipeline: Pinocchio (A(q), J(q)) → metric (N, Delassus W) → roughness (f
 and their measure) → law (the flux-weighted average (2.8)) → result (I by (1.1)).
 """
 
-from .contact import PointContact, impact
+from .contact import PointContact, impact, impact_batch
 from .errors import (
     FrameNotFoundError,
     ImpactError,
@@ -22,9 +22,11 @@ from .laws import AccuracyWarning, ImpactLaw, NewtonLaw, RoughLaw
 from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
 from .restitution import e_from_k, impact_duration, k_from_e
-from .result import ImpactResult
+from .relief import HeightMap, Profile
+from .result import BatchResult, ImpactResult
 from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
-from .roughness import Cone, Facets, Roughness, Sawtooth, Smooth
+from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
+from .slopes import GaussianSlopes, IsotropicSlopes
 
 __version__ = "0.1.0"
 
@@ -33,6 +35,7 @@ __all__ = [
     "Mechanism",
     "PointContact",
     "impact",
+    "impact_batch",
     "ContactMetric",
     "local_basis",
     # roughness measures
@@ -41,11 +44,17 @@ __all__ = [
     "Sawtooth",
     "Cone",
     "Facets",
+    "FiniteRoughness",
+    "IsotropicSlopes",
+    "GaussianSlopes",
+    "Profile",
+    "HeightMap",
     # laws and results
     "ImpactLaw",
     "NewtonLaw",
     "RoughLaw",
     "ImpactResult",
+    "BatchResult",
     "AccuracyWarning",
     # Kelvin–Voigt restitution
     "e_from_k",

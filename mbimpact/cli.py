@@ -1,4 +1,4 @@
-"""Command line: ``mbimpact demo [--out FILE.csv]``."""
+"""Command line: ``mbimpact demo|bench``."""
 
 from __future__ import annotations
 
@@ -21,6 +21,20 @@ def _demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .bench import format_report, plot, run_bench, write_csv
+
+    rows = run_bench(quick=args.quick, show_progress=not args.no_progress)
+    print(format_report(rows))
+    if args.out:
+        out = Path(args.out)
+        print(f"\nwrote {write_csv(rows, out / 'bench.csv')}")
+        print(f"wrote {plot(rows, out / 'bench.png')}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mbimpact`` console script."""
     parser = argparse.ArgumentParser(prog="mbimpact", description="Impacts of mechanisms on rough surfaces (Ivanov's constructive model).")
@@ -29,6 +43,11 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--out", help="also write the table as CSV to this file")
     demo.add_argument("--e", type=float, default=0.8, help="facet restitution (default 0.8)")
     demo.set_defaults(func=_demo)
+    bench = sub.add_parser("bench", help="accuracy vs time, overhead against Pinocchio, batch throughput")
+    bench.add_argument("--quick", action="store_true", help="small grids (< 20 s)")
+    bench.add_argument("--out", help="directory for bench.csv and bench.png")
+    bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+    bench.set_defaults(func=_bench)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))

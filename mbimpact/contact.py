@@ -17,9 +17,9 @@ from .errors import ShapeError
 from .laws import ImpactLaw
 from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
-from .result import ImpactResult
+from .result import BatchResult, ImpactResult
 
-__all__ = ["PointContact", "impact"]
+__all__ = ["PointContact", "impact", "impact_batch"]
 
 
 def _unit(name: str, x: ArrayLike) -> NDArray[np.float64]:
@@ -66,12 +66,16 @@ class PointContact:
             if np.linalg.norm(t) < 1e-9:
                 raise ShapeError("tangent is parallel to the normal")
             object.__setattr__(self, "tangent", t / np.linalg.norm(t))
+        if self.tangent is None:
+            R = local_basis(n0, 3)
+        else:
+            R = np.column_stack([self.tangent, np.cross(n0, self.tangent), n0])
+        R.flags.writeable = False
+        object.__setattr__(self, "_basis", R)
 
     def basis(self) -> NDArray[np.float64]:
         """World rotation (3, 3): columns t₁, t₂, n⁰."""
-        if self.tangent is None:
-            return local_basis(self.normal, 3)
-        return np.column_stack([self.tangent, np.cross(self.normal, self.tangent), self.normal])
+        return self._basis  # type: ignore[attr-defined, no-any-return]
 
     def jacobian(self, mech: Mechanism, q: NDArray[np.float64], d: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Contact Jacobian and contact frame for a d-dimensional contact space.
@@ -116,5 +120,34 @@ def impact(
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
-    metric = ContactMetric.from_arrays(mech.mass_matrix(q), J)
+    metric = ContactMetric.from_symmetric(mech.mass_matrix(q), J)
     return law.apply_metric(metric, v, R)
+
+
+def impact_batch(
+    mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: PointContact, law: ImpactLaw
+) -> BatchResult:
+    """:func:`impact` for many configurations, one velocity each.
+
+    Parameters
+    ----------
+    Q : array_like, shape (B, nq)
+    V : array_like, shape (B, nv)
+
+    Returns
+    -------
+    BatchResult
+        With per-row ``A`` (B, nv, nv) and ``J`` (B, d, nv).
+    """
+    Q = as_array("Q", Q, 2, (None, mech.nq))
+    V = as_array("V", V, 2, (Q.shape[0], mech.nv))
+    results = [impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
+    if not results:
+        raise ShapeError("Q and V must have at least one row")
+    stack = lambda name: np.stack([getattr(r, name) for r in results])  # noqa: E731
+    return BatchResult(
+        V_minus=V.copy(), V_plus=stack("v_plus"), dV=stack("dv"), P=stack("P"),
+        U_minus=stack("u_minus"), U_plus=stack("u_plus"), n0=stack("n0"), A=stack("A"), J=stack("J"),
+        law=law, error_estimate=np.array([r.error_estimate for r in results]),
+        nodes=max(r.nodes for r in results),
+    )

@@ -160,9 +160,8 @@ class Mechanism:
             Offset of the point from the frame origin, in the frame's own axes.
         """
         fid = self.frame_id(frame)
-        pin.computeJointJacobians(self.model, self.data, q)
-        pin.updateFramePlacements(self.model, self.data)
-        J6 = pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED)
+        # computeFrameJacobian also updates data.oMf[fid], used for the offset below
+        J6 = pin.computeFrameJacobian(self.model, self.data, q, fid, pin.LOCAL_WORLD_ALIGNED)
         Jp = J6[:3].copy()
         if point is not None and np.any(point):
             r = self.data.oMf[fid].rotation @ point  # offset in world axes

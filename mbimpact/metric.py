@@ -79,6 +79,19 @@ class ContactMetric:
         return cls.from_factorised(A, J, AinvJt)
 
     @classmethod
+    def from_symmetric(cls, A: NDArray[np.float64], J: NDArray[np.float64]) -> ContactMetric:
+        """Fast path for a mass matrix known to be symmetric and finite (``pin.crba``).
+
+        Only positive definiteness is checked, by the Cholesky factorisation itself.
+        """
+        try:
+            L = np.linalg.cholesky(A)
+        except np.linalg.LinAlgError:
+            return cls.from_arrays(A, J)  # raises NotPositiveDefiniteError with the eigenvalue
+        Y = np.linalg.solve(L, J.T)
+        return cls.from_factorised(A, J, np.linalg.solve(L.T, Y))
+
+    @classmethod
     def from_factorised(
         cls, A: NDArray[np.float64], J: NDArray[np.float64], AinvJt: NDArray[np.float64]
     ) -> ContactMetric:
@@ -128,7 +141,8 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
         axis = np.eye(3)[int(np.argmin(np.abs(n0)))]
         t1 = axis - (axis @ n0) * n0
         t1 /= np.linalg.norm(t1)
-        return np.column_stack([t1, np.cross(n0, t1), n0])
+        t2 = np.array([n0[1] * t1[2] - n0[2] * t1[1], n0[2] * t1[0] - n0[0] * t1[2], n0[0] * t1[1] - n0[1] * t1[0]])
+        return np.column_stack([t1, t2, n0])
     if f.shape == (d, d):
         err = float(np.max(np.abs(f.T @ f - np.eye(d))))
         if err > 1e-9:

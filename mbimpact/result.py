@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ImpactResult"]
+__all__ = ["ImpactResult", "BatchResult"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -22,7 +23,9 @@ class ImpactResult:
         Velocity jump Δv = A⁻¹ Jᵀ P (kept separately: v₊ − v₋ would lose digits
         when the jump is small beside the velocity).
     P : ndarray, shape (d,)
-        Contact impulse in world-aligned contact coordinates; I = Jᵀ P.
+        Contact impulse in world-aligned contact coordinates; I = Jᵀ P. When J is
+        rank-deficient, P is defined up to the null space of Jᵀ and the
+        minimum-norm impulse is reported.
     u_minus, u_plus : ndarray, shape (d,)
         Contact-point velocity J v before and after.
     n0 : ndarray, shape (d,)
@@ -31,8 +34,8 @@ class ImpactResult:
         The mass matrix the impact was computed with.
     J : ndarray, shape (d, n)
         The contact Jacobian.
-    law : str
-        Description of the law that produced the result.
+    law : ImpactLaw
+        The law that produced the result.
     error_estimate : float
         Estimated relative error of ``P`` from the averaging quadrature
         (0 for laws and roughness measures that are integrated exactly).
@@ -49,7 +52,7 @@ class ImpactResult:
     n0: NDArray[np.float64]
     A: NDArray[np.float64]
     J: NDArray[np.float64]
-    law: str
+    law: Any
     error_estimate: float = 0.0
     nodes: int = 1
 
@@ -112,6 +115,66 @@ class ImpactResult:
     def summary(self) -> str:
         """One line with κ, μ, the energy loss and the post-impact contact velocity."""
         return (
-            f"{self.law}: kappa={self.kappa:.6g} mu={self.mu:.6g} "
+            f"{self.law!r}: kappa={self.kappa:.6g} mu={self.mu:.6g} "
             f"energy_loss={self.energy_loss:.6g} u_plus={np.array2string(self.u_plus, precision=6)}"
         )
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """Results of many impacts evaluated together (rows), see :class:`ImpactResult`.
+
+    ``A`` and ``J`` are shared, shapes (n, n) and (d, n), for a batch at one
+    configuration, or per row, shapes (B, n, n) and (B, d, n).
+    """
+
+    V_minus: NDArray[np.float64]
+    V_plus: NDArray[np.float64]
+    dV: NDArray[np.float64]
+    P: NDArray[np.float64]
+    U_minus: NDArray[np.float64]
+    U_plus: NDArray[np.float64]
+    n0: NDArray[np.float64]
+    A: NDArray[np.float64]
+    J: NDArray[np.float64]
+    law: Any
+    error_estimate: NDArray[np.float64]
+    nodes: int = 1
+
+    def __len__(self) -> int:
+        return self.V_minus.shape[0]
+
+    def __getitem__(self, i: int) -> ImpactResult:
+        """The i-th impact as an :class:`ImpactResult`."""
+        A = self.A[i] if self.A.ndim == 3 else self.A
+        J = self.J[i] if self.J.ndim == 3 else self.J
+        n0 = self.n0[i] if self.n0.ndim == 2 else self.n0
+        return ImpactResult(
+            v_minus=self.V_minus[i].copy(), v_plus=self.V_plus[i].copy(), dv=self.dV[i].copy(),
+            P=self.P[i].copy(), u_minus=self.U_minus[i].copy(), u_plus=self.U_plus[i].copy(),
+            n0=n0.copy(), A=A, J=J, law=self.law, error_estimate=float(self.error_estimate[i]), nodes=self.nodes,
+        )
+
+    @property
+    def P_n(self) -> NDArray[np.float64]:
+        """Normal contact impulses, shape (B,)."""
+        return np.einsum("bd,...d->b", self.P, self.n0) if self.n0.ndim == 2 else self.P @ self.n0
+
+    @property
+    def mu(self) -> NDArray[np.float64]:
+        """Friction ratios |P_t| / P_n, shape (B,)."""
+        pn = self.P_n
+        n0 = self.n0 if self.n0.ndim == 2 else self.n0[None, :]
+        pt = np.linalg.norm(self.P - pn[:, None] * n0, axis=1)
+        return np.divide(pt, pn, out=np.zeros_like(pn), where=pn > 0)
+
+    @property
+    def kappa(self) -> NDArray[np.float64]:
+        """Newton restitutions −(n⁰·u₊)/(n⁰·u₋), shape (B,)."""
+        n0 = self.n0 if self.n0.ndim == 2 else self.n0[None, :]
+        return -np.sum(self.U_plus * n0, axis=1) / np.sum(self.U_minus * n0, axis=1)
+
+    @property
+    def energy_loss(self) -> NDArray[np.float64]:
+        """T₋ − T₊ per row, −Pᵀ(u₋ + u₊)/2, shape (B,)."""
+        return -0.5 * np.sum(self.P * (self.U_minus + self.U_plus), axis=1)

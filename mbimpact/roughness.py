@@ -11,7 +11,6 @@ of ``u`` only, never on the mass matrix, so a rule can follow it exactly.
 
 from __future__ import annotations
 
-import functools
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -21,9 +20,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
-from .errors import RoughnessError
+from .errors import ParameterError, RoughnessError
+from .quadrature import azimuth_rule
 
-__all__ = ["Roughness", "Smooth", "Sawtooth", "Cone", "Facets"]
+__all__ = ["Roughness", "FiniteRoughness", "Smooth", "Sawtooth", "Cone", "Facets", "check_normals", "check_weights"]
 
 # Tolerance on |m| = 1 for user-given facet normals.
 _UNIT_TOL = 1e-9
@@ -40,49 +40,83 @@ class Roughness(ABC):
     exact : bool
         True when :meth:`rule` integrates the measure exactly (finite facet sets);
         False when it is a quadrature whose node count the law refines.
+    initial_nodes : int
+        First node count tried by an adaptive law (ignored when ``exact``).
     """
 
     dim: ClassVar[int | None] = None
     exact: ClassVar[bool] = True
-    #: First node count tried by an adaptive law (ignored when ``exact``).
     initial_nodes: ClassVar[int] = 1
 
     @abstractmethod
-    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Quadrature of the measure on (a superset of) the facets facing ``u``.
+    def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Quadrature of the measure on (a superset of) the facets facing each row of ``U``.
 
         Parameters
         ----------
-        u : ndarray, shape (d,)
-            Pre-impact contact velocity in the local frame, ``u[-1] < 0``.
+        U : ndarray, shape (B, d)
+            Pre-impact contact velocities in the local frame, ``U[:, -1] < 0``.
         nodes : int
             Node count for measures that are not finite (ignored otherwise).
 
         Returns
         -------
-        normals : ndarray, shape (K, d)
-            Unit facet normals in the local frame.
-        weights : ndarray, shape (K,)
+        normals : ndarray, shape (K, d) or (B, K, d)
+            Unit facet normals in the local frame; 2-D when shared by all rows.
+        weights : ndarray, shape (K,) or (B, K)
             Their probabilities dP (non-negative).
         """
+
+    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`rule_batch` for one velocity ``u`` (d,): normals (K, d), weights (K,)."""
+        m, w = self.rule_batch(u[None, :], nodes)
+        return (m if m.ndim == 2 else m[0]), (w if w.ndim == 1 else w[0])
+
+    def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+        """``count`` facet normals drawn from P (local frame), shape (count, d).
+
+        Used by the Monte Carlo average (``RoughLaw(method="mc")``).
+        """
+        raise ParameterError(f"{type(self).__name__} cannot be sampled; use method='quadrature'")
 
     def supports(self, d: int) -> bool:
         """Whether the measure can be used in a contact space of dimension ``d``."""
         return self.dim is None or self.dim == d
 
 
+class FiniteRoughness(Roughness):
+    """A measure with finitely many facets, the same for every velocity."""
+
+    @abstractmethod
+    def facets(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Normals (K, d) and probabilities (K,) summing to 1."""
+
+    def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.facets()
+
+    def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+        m, w = self.facets()
+        return m[rng.choice(len(w), size=count, p=w)]
+
+
 @dataclass(frozen=True)
-class Smooth(Roughness):
+class Smooth(FiniteRoughness):
     """No microrelief, g ≡ 0: every facet is the base surface (property 5°)."""
 
-    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        normal = np.zeros((1, u.shape[0]))
+    def facets(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        raise AssertionError("Smooth has no fixed dimension; use rule_batch")  # pragma: no cover
+
+    def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        normal = np.zeros((1, U.shape[1]))
         normal[0, -1] = 1.0
         return normal, np.ones(1)
 
+    def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+        raise ParameterError("Smooth has a single facet; Monte Carlo sampling is pointless, use the quadrature")
+
 
 @dataclass(frozen=True)
-class Sawtooth(Roughness):
+class Sawtooth(FiniteRoughness):
     """Planar sawtooth of the paper's example (2.11)–(2.13).
 
     Facet normals (∓sin α, cos α) with probability ½ each.
@@ -99,17 +133,9 @@ class Sawtooth(Roughness):
     def __post_init__(self) -> None:
         object.__setattr__(self, "alpha", as_scalar("alpha", self.alpha, 0.0, math.pi / 2, hi_open=True))
 
-    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def facets(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         s, c = math.sin(self.alpha), math.cos(self.alpha)
         return np.array([[-s, c], [s, c]]), np.array([0.5, 0.5])
-
-
-@functools.lru_cache(maxsize=32)
-def _gauss_legendre(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    x, w = np.polynomial.legendre.leggauss(n)
-    x.flags.writeable = False
-    w.flags.writeable = False
-    return x, w
 
 
 @dataclass(frozen=True)
@@ -122,7 +148,7 @@ class Cone(Roughness):
     converges geometrically; otherwise the facing arc
     cos(φ - ψ) < cot α |u_n| / |u_t| is found in closed form and integrated by
     Gauss–Legendre on that arc, so convergence stays geometric in the truncated
-    regime too.
+    regime too (:func:`mbimpact.quadrature.azimuth_rule`).
 
     Parameters
     ----------
@@ -138,41 +164,51 @@ class Cone(Roughness):
     def __post_init__(self) -> None:
         object.__setattr__(self, "alpha", as_scalar("alpha", self.alpha, 0.0, math.pi / 2, hi_open=True))
 
-    def facing_arc(self, u: NDArray[np.float64]) -> tuple[float, float]:
-        """Centre ψ and half-width of the azimuth arc of facets facing ``u``.
-
-        Returns ``(psi, half)``; ``half = π`` means the whole cone faces ``u``.
-        """
-        ut = math.hypot(u[0], u[1])
-        psi = math.atan2(u[1], u[0])
-        s, c = math.sin(self.alpha), math.cos(self.alpha)
-        # mᵀu < 0  <=>  cos(φ - ψ) < c |u_n| / (s |u_t|)
-        if s * ut <= c * abs(u[2]):
-            return psi, math.pi
-        return psi + math.pi, math.pi - math.acos(c * abs(u[2]) / (s * ut))
-
-    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         if self.alpha == 0.0:
             return np.array([[0.0, 0.0, 1.0]]), np.ones(1)
-        centre, half = self.facing_arc(u)
-        if half == math.pi:
-            # nodes symmetric about ψ: the result lies exactly in the plane of u and n⁰ (2°)
-            phi = centre + (2.0 * math.pi / nodes) * np.arange(nodes)
-            w = np.full(nodes, 1.0 / nodes)
-        else:
-            x, gw = _gauss_legendre(nodes)
-            phi = centre + half * x
-            w = gw * (half / (2.0 * math.pi))
+        B = U.shape[0]
+        return azimuth_rule(np.full((B, 1), self.alpha), np.ones((B, 1)), U, nodes)
+
+    def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+        phi = rng.uniform(0.0, 2.0 * math.pi, count)
         s, c = math.sin(self.alpha), math.cos(self.alpha)
-        normals = np.empty((phi.size, 3))
-        normals[:, 0] = s * np.cos(phi)
-        normals[:, 1] = s * np.sin(phi)
-        normals[:, 2] = c
-        return normals, w
+        return np.column_stack([s * np.cos(phi), s * np.sin(phi), np.full(count, c)])
+
+
+def check_normals(name: str, normals: ArrayLike) -> NDArray[np.float64]:
+    """Validate facet normals (K, d): unit, d = 2 or 3, pointing out of the base surface."""
+    m = as_array(name, normals, 2)
+    if m.shape[1] not in (2, 3) or m.shape[0] == 0:
+        raise RoughnessError(f"facet normals must have shape (K, d), K ≥ 1, d = 2 or 3; got {m.shape}")
+    lengths = np.linalg.norm(m, axis=1)
+    bad = np.flatnonzero(np.abs(lengths - 1.0) > _UNIT_TOL)
+    if bad.size:
+        raise RoughnessError(
+            f"facet normal {bad[0]} has length {lengths[bad[0]]:.12g}; normals must be unit vectors"
+        )
+    if np.any(m[:, -1] <= 0.0):
+        i = int(np.flatnonzero(m[:, -1] <= 0.0)[0])
+        raise RoughnessError(
+            f"facet normal {i} = {m[i].tolist()} does not point out of the base surface; "
+            "its last component (along n0) must be > 0"
+        )
+    return m
+
+
+def check_weights(name: str, weights: ArrayLike, count: int) -> NDArray[np.float64]:
+    """Validate non-negative, not-all-zero weights of length ``count``; normalise to sum 1."""
+    w = as_array(name, weights, 1, (count,))
+    if np.any(w < 0):
+        raise RoughnessError(f"{name} must be non-negative; {name}[{int(np.argmin(w))}] is {w.min():.6g}")
+    total = float(w.sum())
+    if total <= 0.0:
+        raise RoughnessError(f"{name} are all zero; at least one facet must have positive weight")
+    return w / total
 
 
 @dataclass(frozen=True, eq=False)
-class Facets(Roughness):
+class Facets(FiniteRoughness):
     """Any finite measure: facet normals with weights, planar or spatial.
 
     Parameters
@@ -188,41 +224,20 @@ class Facets(Roughness):
     weights: NDArray[np.float64] | None = field(default=None)
 
     def __post_init__(self) -> None:
-        m = as_array("normals", self.normals, 2)
-        if m.shape[1] not in (2, 3) or m.shape[0] == 0:
-            raise RoughnessError(f"facet normals must have shape (K, d), K ≥ 1, d = 2 or 3; got {m.shape}")
-        lengths = np.linalg.norm(m, axis=1)
-        bad = np.flatnonzero(np.abs(lengths - 1.0) > _UNIT_TOL)
-        if bad.size:
-            raise RoughnessError(
-                f"facet normal {bad[0]} has length {lengths[bad[0]]:.12g}; normals must be unit vectors"
-            )
-        if np.any(m[:, -1] <= 0.0):
-            i = int(np.flatnonzero(m[:, -1] <= 0.0)[0])
-            raise RoughnessError(
-                f"facet normal {i} = {m[i].tolist()} does not point out of the base surface; "
-                "its last component (along n0) must be > 0"
-            )
+        m = check_normals("normals", self.normals).copy()
         if self.weights is None:
             w = np.full(m.shape[0], 1.0 / m.shape[0])
         else:
-            w = as_array("weights", self.weights, 1, (m.shape[0],))
-            if np.any(w < 0):
-                raise RoughnessError(f"weights must be non-negative; weight {int(np.argmin(w))} is {w.min():.6g}")
-            total = float(w.sum())
-            if total <= 0.0:
-                raise RoughnessError("weights are all zero; at least one facet must have positive weight")
-            w = w / total
-        m = m.copy()
+            w = check_weights("weights", self.weights, m.shape[0])
         m.flags.writeable = False
         w.flags.writeable = False
         object.__setattr__(self, "normals", m)
         object.__setattr__(self, "weights", w)
         object.__setattr__(self, "dim", m.shape[1])
 
-    def supports(self, d: int) -> bool:
-        return self.dim == d
+    def __repr__(self) -> str:
+        return f"Facets({self.normals.shape[0]} facets, d={self.normals.shape[1]})"
 
-    def rule(self, u: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def facets(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         assert self.weights is not None
         return self.normals, self.weights

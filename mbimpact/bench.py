@@ -1,0 +1,267 @@
+"""``mbimpact bench``: what accuracy costs in time.
+
+Three measurements, all taken in the same run so that ratios are meaningful:
+
+1. ``accuracy`` — error against a converged reference vs wall time per impact
+   for each way of averaging (2.8) over a cone of facets: the corrected closed
+   form (2.10) where it exists, the exact-arc quadrature at several node counts,
+   uniform azimuth sampling (G* by indicator), and Monte Carlo.
+2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of
+   the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v.
+3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
+   increasing size and for several node counts.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .contact import PointContact, impact
+from .laws import ImpactLaw, NewtonLaw, RoughLaw
+from .mechanism import Mechanism
+from .progress import Progress
+from .roughness import Cone, Facets
+
+__all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "machine_summary"]
+
+ALPHA = 0.4  # cone tilt: G* is cut for β > π/2 − α ≈ 67°
+E = 0.5
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One measurement: ``part`` is accuracy, overhead or batch."""
+
+    part: str
+    case: str
+    method: str
+    param: float
+    error: float
+    seconds: float
+    ratio: float = math.nan
+
+
+def machine_summary() -> str:
+    """Processor, Python, numpy and Pinocchio versions, for the report."""
+    return (
+        f"{platform.processor() or platform.machine()}, {platform.system()}, Python {platform.python_version()}, "
+        f"numpy {np.__version__}, pinocchio {pin.__version__}"
+    )
+
+
+def per_call(fn: Callable[[], object], min_time: float) -> float:
+    """Best of 3 mean wall times of ``fn()``, each over at least ``min_time`` seconds."""
+    fn()  # warm caches
+    best = math.inf
+    for _ in range(3):
+        count, start = 0, time.perf_counter()
+        while True:
+            fn()
+            count += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= min_time:
+                break
+        best = min(best, elapsed / count)
+    return best
+
+
+def closed_form_cone(alpha: float, e: float, v: np.ndarray) -> np.ndarray:
+    """Corrected (2.10) for a point mass and a cone of tilt α (whole cone facing)."""
+    vl, vn = v[:2], abs(v[2])
+    ca, s2c = math.cos(alpha), math.sin(alpha) ** 2 * math.cos(alpha)
+    return (1 + e) / ca * np.array([-vl[0] * s2c, -vl[1] * s2c, vn * ca**3 + (vl @ vl) / vn * s2c / 2])
+
+
+def _uniform_facets(alpha: float, count: int) -> Facets:
+    phi = 2 * math.pi * (np.arange(count) + 0.5) / count
+    s, c = math.sin(alpha), math.cos(alpha)
+    return Facets(np.column_stack([s * np.cos(phi), s * np.sin(phi), np.full(count, c)]))
+
+
+def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    ur5 = Mechanism.from_robot("ur5")
+    q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
+    J_ur5 = ur5.point_jacobian(q, "tool0")
+    cases = {"point mass": (np.eye(3), np.eye(3)), "UR5 tool0": (ur5.mass_matrix(q), J_ur5)}
+    betas = (0.0, 30.0, 60.0, 75.0, 85.0) if not quick else (30.0, 75.0)
+    gl_nodes = (4, 8, 16, 32, 64)
+    uniform = (16, 64, 256, 1024) if not quick else (16, 256)
+    mc = (100, 1000, 10_000, 100_000) if not quick else (100, 10_000)
+    for case, (A, J) in cases.items():
+        for beta_deg in betas:
+            beta = math.radians(beta_deg)
+            u = np.array([math.sin(beta) * math.cos(0.3), math.sin(beta) * math.sin(0.3), -math.cos(beta)])
+            v = np.linalg.lstsq(J, u, rcond=None)[0] if case != "point mass" else u
+            ref = RoughLaw(Cone(ALPHA), E, nodes=1024).apply(A, J, v, [0, 0, 1]).P
+            label = f"{case}, beta={beta_deg:g}"
+
+            def measure(method: str, param: float, law: ImpactLaw | None, fn: Callable[[], np.ndarray] | None = None) -> None:
+                call = fn if fn is not None else (lambda: law.apply(A, J, v, [0, 0, 1]).P)  # type: ignore[union-attr]
+                P = call()
+                err = float(np.linalg.norm(P - ref) / np.linalg.norm(ref))
+                rows.append(BenchRow("accuracy", label, method, param, err, per_call(call, min_time)))
+
+            if case == "point mass" and math.tan(beta) * math.tan(ALPHA) < 1:
+                measure("closed form (2.10)", 0, None, lambda: closed_form_cone(ALPHA, E, v))
+            for n in gl_nodes:
+                measure("exact-arc quadrature", n, RoughLaw(Cone(ALPHA), E, nodes=n))
+            measure("adaptive (rtol=1e-12)", 0, RoughLaw(Cone(ALPHA), E))
+            for n in uniform:
+                measure("uniform sampling", n, RoughLaw(_uniform_facets(ALPHA, n), E))
+            for n in mc:
+                measure("Monte Carlo", n, RoughLaw(Cone(ALPHA), E, method="mc", samples=n, seed=1))
+            progress.step(label)
+    return rows
+
+
+OVERHEAD_ROBOTS = ("ur5", "panda", "solo12", "talos")
+
+
+def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    for name in robots:
+        mech = Mechanism.from_robot(name)
+        rng = np.random.default_rng(7)
+        q = mech.random_configuration(rng)
+        frame = mech.frame_names[-1]
+        contact = PointContact(frame)
+        fid = mech.frame_id(frame)
+        J = mech.point_jacobian(q, frame)
+        v = -J[2] / max(float(np.linalg.norm(J[2])), 1e-12) + 0.1 * rng.normal(size=mech.nv)
+        if J[2] @ v >= 0:
+            v = -J[2]
+        model, data = mech.model, mech.model.createData()
+
+        def baseline() -> None:
+            Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+            pin.impulseDynamics(model, data, q, v, Jf[2:3], E, 0.0)
+
+        t_pin = per_call(baseline, min_time)
+        rows.append(BenchRow("overhead", name, "Jacobian + pin.impulseDynamics", mech.nv, 0.0, t_pin, 1.0))
+        for label, law in (("impact, NewtonLaw", NewtonLaw(E)), ("impact, RoughLaw(Cone)", RoughLaw(Cone(0.3), E))):
+            t = per_call(lambda: impact(mech, q, v, contact, law), min_time)
+            rows.append(BenchRow("overhead", name, label, mech.nv, 0.0, t, t / t_pin))
+        progress.step(name)
+    return rows
+
+
+BATCH_ROBOTS = ("double_pendulum", "ur5", "panda", "solo12", "talos", "tiago_dual")
+
+
+def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    laws: list[tuple[str, float, ImpactLaw]] = [
+        ("NewtonLaw", 0, NewtonLaw(E)),
+        ("RoughLaw(8 facets)", 8, RoughLaw(_uniform_facets(0.3, 8), E)),
+        ("RoughLaw(Cone), nodes", 16, RoughLaw(Cone(0.3), E, nodes=16)),
+        ("RoughLaw(Cone), nodes", 32, RoughLaw(Cone(0.3), E, nodes=32)),
+        ("RoughLaw(Cone), nodes", 64, RoughLaw(Cone(0.3), E, nodes=64)),
+        ("RoughLaw(Cone), adaptive", 0, RoughLaw(Cone(0.3), E)),
+    ]
+    for name in robots:
+        mech = Mechanism.from_robot(name)
+        rng = np.random.default_rng(11)
+        q = mech.random_configuration(rng)
+        frame = mech.frame_names[-1]
+        J = mech.point_jacobian(q, frame)
+        A = mech.mass_matrix(q)
+        n0 = np.array([0.0, 0.0, 1.0])
+        if np.linalg.norm(J[2]) < 1e-9:  # planar mechanism moving sideways: strike along its plane
+            n0 = J @ rng.normal(size=mech.nv)
+            n0 /= np.linalg.norm(n0)
+        V = rng.normal(size=(size, mech.nv))
+        V[V @ (J.T @ n0) > 0] *= -1
+        V = V[V @ (J.T @ n0) < 0]
+        for label, param, law in laws:
+            start = time.perf_counter()
+            law.apply_batch(A, J, V, n0)
+            elapsed = time.perf_counter() - start
+            rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label, param, 0.0, elapsed / len(V), len(V) / elapsed))
+        progress.step(name)
+    return rows
+
+
+def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]:
+    """Run the three parts; ``quick`` trims grids and repetitions (< 20 s)."""
+    min_time = 0.005 if quick else 0.05
+    acc_steps = 4 if quick else 10
+    robots = OVERHEAD_ROBOTS[:2] + OVERHEAD_ROBOTS[2:] if not quick else ("ur5", "solo12")
+    batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
+    progress = Progress(acc_steps + len(robots) + len(batch_robots), "bench", enabled=show_progress)
+    rows = _accuracy(quick, min_time, progress)
+    rows += _overhead(robots, min_time, progress)
+    rows += _batch(batch_robots, 5_000 if quick else 100_000, progress)
+    return rows
+
+
+def format_report(rows: list[BenchRow]) -> str:
+    """Markdown tables: accuracy (error, µs per impact), overhead ratios, batch throughput."""
+    out = [f"Machine: {machine_summary()}", ""]
+    out += ["## Accuracy vs time (cone alpha=0.4, e=0.5; error relative to 1024-node exact-arc quadrature)", "",
+            "| case | method | nodes/samples | rel. error | µs/impact |", "|---|---|---|---|---|"]
+    for r in rows:
+        if r.part == "accuracy":
+            param = "" if r.param == 0 else f"{r.param:g}"
+            out.append(f"| {r.case} | {r.method} | {param} | {r.error:.2e} | {r.seconds * 1e6:.1f} |")
+    out += ["", "## Per-call cost against Pinocchio (same q, v, one run)", "",
+            "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |", "|---|---|---|---|---|"]
+    for r in rows:
+        if r.part == "overhead":
+            out.append(f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |")
+    out += ["", "## Batch throughput (apply_batch, one configuration)", "",
+            "| robot | law | nodes | impacts/s | µs/impact |", "|---|---|---|---|---|"]
+    for r in rows:
+        if r.part == "batch":
+            param = "" if r.param == 0 else f"{r.param:g}"
+            out.append(f"| {r.case} | {r.method} | {param} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |")
+    return "\n".join(out)
+
+
+def write_csv(rows: list[BenchRow], path: Path) -> Path:
+    """All rows as CSV (columns of :class:`BenchRow`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
+        writer.writeheader()
+        for r in rows:
+            writer.writerow(asdict(r))
+    return path
+
+
+def plot(rows: list[BenchRow], path: Path) -> Path:
+    """Error vs time per method, and batch cost per impact vs nv."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
+    acc = [r for r in rows if r.part == "accuracy"]
+    for method in dict.fromkeys(r.method for r in acc):
+        pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if r.method == method]
+        ax1.scatter(*zip(*pts), label=method, s=18)
+    ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of P",
+            title="Accuracy vs time, cone α = 0.4 (all β, both cases)")
+    ax1.legend(fontsize=8)
+    bat = [r for r in rows if r.part == "batch"]
+    for method in dict.fromkeys((r.method, r.param) for r in bat):
+        pts = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6) for r in bat if (r.method, r.param) == method)
+        label = method[0] + (f" {method[1]:g}" if method[1] else "")
+        ax2.plot(*zip(*pts), marker="o", label=label)
+    ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
+    ax2.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

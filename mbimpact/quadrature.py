@@ -1,0 +1,103 @@
+"""Quadrature nodes on the azimuth circle of an isotropic roughness, with G* exact.
+
+For facets tilted by α from n⁰, with azimuth φ uniform, a facet faces the contact
+velocity u iff sin α |u_t| cos(φ − ψ) < cos α |u_n| (ψ: azimuth of u_t). That set
+is the whole circle (periodic trapezoid rule: geometric convergence) or an arc
+whose end points are known in closed form (Gauss–Legendre on the arc: geometric
+convergence too). Everything is vectorised over rows of velocities and tilts.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["gauss_legendre", "azimuth_rule", "tilt_segments"]
+
+
+@functools.lru_cache(maxsize=64)
+def gauss_legendre(n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gauss–Legendre nodes and weights on [-1, 1] (cached, read-only)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    x.flags.writeable = False
+    w.flags.writeable = False
+    return x, w
+
+
+def azimuth_rule(
+    tilt: NDArray[np.float64], tilt_weight: NDArray[np.float64], U: NDArray[np.float64], nodes: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Facet normals and weights over tilts × the facing part of the azimuth circle.
+
+    Parameters
+    ----------
+    tilt, tilt_weight : ndarray, shape (B, L)
+        Tilt nodes α (0 ≤ α < π/2) and their probabilities, per velocity row.
+    U : ndarray, shape (B, 3)
+        Contact velocities in the local frame, ``U[:, 2] < 0``.
+    nodes : int
+        Azimuth nodes per tilt.
+
+    Returns
+    -------
+    normals : ndarray, shape (B, L * nodes, 3)
+    weights : ndarray, shape (B, L * nodes)
+        ``tilt_weight`` × the azimuth probability of each node; nodes on the
+        excluded part of the circle never appear.
+    """
+    ut = np.hypot(U[:, 0], U[:, 1])[:, None]  # (B, 1)
+    un = np.abs(U[:, 2])[:, None]
+    psi = np.arctan2(U[:, 1], U[:, 0])[:, None]
+    s, c = np.sin(tilt), np.cos(tilt)  # (B, L)
+    full = s * ut <= c * un
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(full, 1.0, c * un / np.where(full, 1.0, s * ut))
+    half = np.where(full, np.pi, np.pi - np.arccos(np.clip(ratio, -1.0, 1.0)))
+    centre = np.where(full, psi, psi + np.pi)
+    x, gw = gauss_legendre(nodes)
+    j = np.arange(nodes)
+    # full circle: ψ + 2πj/n (symmetric about ψ, so property 2° holds exactly); arc: Gauss–Legendre
+    offset = np.where(full[..., None], 2.0 * np.pi * j / nodes, half[..., None] * x)  # (B, L, n)
+    w_az = np.where(full[..., None], 1.0 / nodes, gw * half[..., None] / (2.0 * np.pi))
+    phi = centre[..., None] + offset
+    B = U.shape[0]
+    normals = np.empty((B, tilt.shape[1], nodes, 3))
+    normals[..., 0] = s[..., None] * np.cos(phi)
+    normals[..., 1] = s[..., None] * np.sin(phi)
+    normals[..., 2] = c[..., None]
+    weights = tilt_weight[..., None] * w_az
+    return normals.reshape(B, -1, 3), weights.reshape(B, -1)
+
+
+def tilt_segments(
+    lo: float, hi: float, split: NDArray[np.float64], nodes: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Tilt nodes on [lo, split] ∪ [split, hi] per row, geometric also at the switch.
+
+    Where the cone of tilt α starts to be cut by G* (α* = atan(|u_n| / |u_t|)),
+    the averaged integrand behaves like (α − α*)^{3/2}; the substitution
+    α = split + t² on the upper segment makes it analytic in t.
+
+    Parameters
+    ----------
+    split : ndarray, shape (B,)
+        Split point per row, clipped into [lo, hi].
+
+    Returns
+    -------
+    tilt, dtilt : ndarray, shape (B, 2 * nodes)
+        Nodes and quadrature weights (dα) on [lo, hi].
+    """
+    x, w = gauss_legendre(nodes)
+    a = np.clip(split, lo, hi)[:, None]
+    # [lo, a]: plain Gauss–Legendre
+    t1 = lo + (a - lo) * (x + 1.0) / 2.0
+    w1 = (a - lo) / 2.0 * w
+    # [a, hi]: α = a + t², t ∈ [0, sqrt(hi − a)]
+    tmax = np.sqrt(hi - a)
+    t = tmax * (x + 1.0) / 2.0
+    t2 = a + t * t
+    w2 = tmax / 2.0 * w * 2.0 * t
+    return np.concatenate([t1, t2], axis=1), np.concatenate([w1, w2], axis=1)
