@@ -31,7 +31,7 @@ from .mechanism import Mechanism
 from .progress import Progress
 from .roughness import Cone, Facets
 
-__all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "machine_summary"]
+__all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "plot", "machine_summary", "moving_frame"]
 
 ALPHA = 0.4  # cone tilt: G* is cut for β > π/2 − α ≈ 67°
 E = 0.5
@@ -127,13 +127,21 @@ def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow
 OVERHEAD_ROBOTS = ("ur5", "panda", "solo12", "talos")
 
 
+def moving_frame(mech: Mechanism, q: np.ndarray) -> str:
+    """The last-declared frame whose translational Jacobian at q is not zero."""
+    for name in reversed(mech.frame_names):
+        if np.linalg.norm(mech.point_jacobian(q, name)) > 1e-6:
+            return name
+    raise ValueError(f"no frame of {mech.name} moves")  # pragma: no cover
+
+
 def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> list[BenchRow]:
     rows: list[BenchRow] = []
     for name in robots:
         mech = Mechanism.from_robot(name)
         rng = np.random.default_rng(7)
         q = mech.random_configuration(rng)
-        frame = mech.frame_names[-1]
+        frame = moving_frame(mech, q)
         contact = PointContact(frame)
         fid = mech.frame_id(frame)
         J = mech.point_jacobian(q, frame)
@@ -155,7 +163,7 @@ def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> l
     return rows
 
 
-BATCH_ROBOTS = ("double_pendulum", "ur5", "panda", "solo12", "talos", "tiago_dual")
+BATCH_ROBOTS = ("finger_edu", "ur5", "panda", "solo12", "talos", "tiago_dual")
 
 
 def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchRow]:
@@ -172,7 +180,7 @@ def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[Bench
         mech = Mechanism.from_robot(name)
         rng = np.random.default_rng(11)
         q = mech.random_configuration(rng)
-        frame = mech.frame_names[-1]
+        frame = moving_frame(mech, q)
         J = mech.point_jacobian(q, frame)
         A = mech.mass_matrix(q)
         n0 = np.array([0.0, 0.0, 1.0])
@@ -183,9 +191,11 @@ def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[Bench
         V[V @ (J.T @ n0) > 0] *= -1
         V = V[V @ (J.T @ n0) < 0]
         for label, param, law in laws:
-            start = time.perf_counter()
-            law.apply_batch(A, J, V, n0)
-            elapsed = time.perf_counter() - start
+            elapsed = math.inf
+            for _ in range(2):  # the first pass also pays for page faults of the output arrays
+                start = time.perf_counter()
+                law.apply_batch(A, J, V, n0)
+                elapsed = min(elapsed, time.perf_counter() - start)
             rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label, param, 0.0, elapsed / len(V), len(V) / elapsed))
         progress.step(name)
     return rows

@@ -288,9 +288,9 @@ class RoughLaw(ImpactLaw):
     nodes : int, optional
         Fixed node count instead of adaptive refinement (the error estimate then
         compares with ``nodes // 2``).
-    max_nodes : int
+    max_nodes : int, optional
         Node count at which refinement stops (an :class:`AccuracyWarning` is
-        issued if ``rtol`` was not reached).
+        issued if ``rtol`` was not reached); default: the measure's ``node_limit``.
     samples, seed : int
         Monte Carlo sample count and seed (``method="mc"``).
     """
@@ -305,7 +305,7 @@ class RoughLaw(ImpactLaw):
         method: Literal["quadrature", "mc"] = "quadrature",
         rtol: float = 1e-12,
         nodes: int | None = None,
-        max_nodes: int = 1 << 12,
+        max_nodes: int | None = None,
         samples: int = 10_000,
         seed: int = 0,
     ) -> None:
@@ -326,6 +326,7 @@ class RoughLaw(ImpactLaw):
         if nodes is not None and int(nodes) < 1:
             raise ParameterError(f"nodes must be ≥ 1, got {nodes}")
         self.nodes = None if nodes is None else int(nodes)
+        max_nodes = roughness.node_limit if max_nodes is None else max_nodes
         if int(max_nodes) < max(1, roughness.initial_nodes):
             raise ParameterError(f"max_nodes must be ≥ {roughness.initial_nodes}, got {max_nodes}")
         self.max_nodes = int(max_nodes)
@@ -359,8 +360,8 @@ class RoughLaw(ImpactLaw):
             s = U @ m.T
             q = np.broadcast_to(np.einsum("kd,de,ke->k", m, W, m), s.shape)
         else:
-            s = np.einsum("bkd,bd->bk", m, U)
-            q = np.einsum("bkd,de,bke->bk", m, W, m)
+            s = (m @ U[:, :, None])[..., 0]
+            q = np.einsum("bkd,bkd->bk", m @ W, m)  # (m W)·m: much faster than a 3-operand einsum
         facing = (s < 0.0) & (q > _DEGENERATE * np.trace(W)) & (p > 0.0)
         safe_q = np.where(facing, q, 1.0)
         flux = np.where(facing, -s / np.sqrt(safe_q) if self.flux == "metric" else -s, 0.0)

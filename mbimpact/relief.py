@@ -76,20 +76,21 @@ class Profile(Roughness):
     def lit_fraction(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         """Part of each segment reached first by an approach along ``u`` (d = 2), shape (K,).
 
-        With c = |u_n| / |u_t| and rays moving towards +x (mirror otherwise), a
-        point x is hit first iff g(x) = h(x) + c x is not below the running
-        maximum of g upstream, so the lit set follows from a prefix maximum.
+        With rays moving towards +x (mirror otherwise), a point x is hit first iff
+        g(x) = |u_t| h(x) + |u_n| x is not below the running maximum of g
+        upstream, so the lit set follows from a prefix maximum.
         """
         h = self.heights
         if u[0] == 0.0:
             return np.ones(h.size - 1)
         forward = u[0] > 0.0
         hh = h if forward else h[::-1]
-        c = abs(u[1]) / abs(u[0])
-        g = hh + c * self.dx * np.arange(h.size)
+        # g scaled by |u_t| > 0 (the running maximum does not care): no division by u_t
+        ut, un = abs(u[0]), abs(u[1])
+        g = ut * hh + un * self.dx * np.arange(h.size)
         start = -np.inf
         if self.periodic:
-            start = float(g.max()) - c * self.dx * (h.size - 1)  # previous period's relief
+            start = float(g.max()) - un * self.dx * (h.size - 1)  # previous period's relief
         prefix = np.maximum.accumulate(np.concatenate([[start], g[:-1]]))[1:]  # max of g up to each left end
         g0, g1 = g[:-1], g[1:]
         rising = g1 > g0

@@ -42,11 +42,14 @@ class Roughness(ABC):
         False when it is a quadrature whose node count the law refines.
     initial_nodes : int
         First node count tried by an adaptive law (ignored when ``exact``).
+    node_limit : int
+        Default node count at which an adaptive law stops refining.
     """
 
     dim: ClassVar[int | None] = None
     exact: ClassVar[bool] = True
     initial_nodes: ClassVar[int] = 1
+    node_limit: ClassVar[int] = 4096
 
     @abstractmethod
     def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

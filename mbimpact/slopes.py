@@ -54,6 +54,7 @@ class IsotropicSlopes(Roughness):
     mass: float = field(init=False, repr=False)
     exact: ClassVar[bool] = False
     initial_nodes: ClassVar[int] = 8
+    node_limit: ClassVar[int] = 256  # product rule: 2 n² facets per velocity
 
     def __post_init__(self) -> None:
         if self.dim not in (2, 3):

@@ -1,0 +1,26 @@
+"""``mbimpact bench --quick``: report, CSV and PNG, with measurements that make sense."""
+
+import csv
+
+from mbimpact.cli import main
+
+
+def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
+    assert main(["bench", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    for heading in ("Accuracy vs time", "Per-call cost against Pinocchio", "Batch throughput"):
+        assert heading in text
+    assert (tmp_path / "bench.png").stat().st_size > 10_000
+    with (tmp_path / "bench.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    acc = [r for r in rows if r["part"] == "accuracy"]
+    # the exact-arc rule reaches 1e-12 with 64 nodes in every regime, uniform sampling does not
+    assert all(float(r["error"]) <= 1e-12 for r in acc if r["method"] == "exact-arc quadrature" and r["param"] == "64.0")
+    truncated = [r for r in acc if "beta=75" in r["case"] and r["method"] == "uniform sampling"]
+    assert truncated and all(float(r["error"]) > 1e-9 for r in truncated)
+    mc = [r for r in acc if r["method"] == "Monte Carlo"]
+    assert all(1e-5 < float(r["error"]) < 0.2 for r in mc)
+    over = [r for r in rows if r["part"] == "overhead"]
+    assert {r["case"] for r in over} >= {"ur5", "solo12"}
+    assert all(float(r["ratio"]) > 0 for r in over)
+    assert all(float(r["ratio"]) > 0 for r in rows if r["part"] == "batch")
