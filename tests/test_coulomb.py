@@ -1,0 +1,122 @@
+"""The axiomatic impact with Coulomb friction (Routh/Keller/Stronge) in impulse space."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+
+from conftest import approaching, seeds, spd
+
+RESTITUTIONS = ["newton", "poisson", "energetic"]
+
+
+@given(st.floats(0.0, 2.0), st.floats(0.0, 1.0), st.floats(-5.0, 5.0), st.sampled_from(RESTITUTIONS),
+       st.floats(0.5, 4.0))
+def test_point_mass_slide_or_stick_closed_form(mu, e, ut, restitution, mass):
+    """W = I/m: the slip direction never changes; sliding if |u_t| > μ(1+e)|u_n|, else sticking."""
+    law = mbi.CoulombLaw(e, mu, restitution)
+    res = law.apply(mass * np.eye(2), np.eye(2), [ut, -1.0], [0, 1])
+    assert res.u_plus[1] == pytest.approx(e, abs=1e-8)
+    slide = abs(ut) - mu * (1 + e)
+    expect_t = math.copysign(slide, ut) if slide > 0 else 0.0
+    assert res.u_plus[0] == pytest.approx(expect_t, abs=1e-8)
+    if slide > 1e-6:
+        assert res.mu == pytest.approx(mu, rel=1e-8, abs=1e-12)
+
+
+def test_spatial_point_mass_slides_against_the_slip():
+    res = mbi.CoulombLaw(0.5, 0.3).apply(np.eye(3), np.eye(3), [1.0, 0.5, -1.0], [0, 0, 1])
+    ut = np.array([1.0, 0.5])
+    expect = ut * (1 - 0.3 * 1.5 / np.linalg.norm(ut))
+    np.testing.assert_allclose(res.u_plus[:2], expect, atol=1e-8)
+
+
+def rod(theta):
+    """Uniform rod (m = 1, l = 1) striking with one end at angle θ: A, J (2×3)."""
+    rx, rz = 0.5 * math.cos(theta), -0.5 * math.sin(theta)
+    return np.diag([1.0, 1.0, 1.0 / 12.0]), np.array([[1.0, 0.0, -rz], [0.0, 1.0, rx]])
+
+
+def test_newton_restitution_creates_energy_with_slip_reversal_energetic_does_not():
+    """Stronge's paradox: kinematic restitution + Coulomb friction can create energy."""
+    worst = {r: math.inf for r in RESTITUTIONS}
+    for th, mu, ut, e in itertools.product(np.linspace(0.1, 1.5, 8), [0.2, 0.8], [-0.3, 0.3, 1.0], [0.9, 1.0]):
+        A, J = rod(th)
+        v = np.linalg.lstsq(J, [ut, -1.0], rcond=None)[0]
+        for r in RESTITUTIONS:
+            res = mbi.CoulombLaw(e, mu, r).apply(A, J, v, [0, 1])
+            worst[r] = min(worst[r], res.energy_loss / res.T_minus)
+    assert worst["newton"] < -1e-3
+    assert worst["energetic"] >= -1e-9 and worst["poisson"] >= -1e-9
+
+
+def test_slip_reversal_on_the_rod():
+    """Slip stops mid-impact and, sticking being impossible, reverses."""
+    A, J = rod(0.8)
+    W = J @ np.linalg.solve(A, J.T)
+    ratio = W[0, 1] / W[0, 0]
+    mu = 0.5 * ratio  # too little friction to stick
+    v = np.linalg.lstsq(J, [-0.2, -1.0], rcond=None)[0]  # slips against the sense W pushes it
+    res = mbi.CoulombLaw(0.5, mu, "energetic").apply(A, J, v, [0, 1])
+    assert res.u_minus[0] < 0 < res.u_plus[0]
+    assert res.mu < mu  # friction impulse partly cancelled by the reversal
+
+
+def test_sticking_keeps_the_tangential_velocity_zero():
+    A, J = rod(0.8)
+    W = J @ np.linalg.solve(A, J.T)
+    mu = 2.0 * abs(W[0, 1] / W[0, 0])
+    v = np.linalg.lstsq(J, [0.1, -1.0], rcond=None)[0]
+    res = mbi.CoulombLaw(0.5, mu).apply(A, J, v, [0, 1])
+    assert res.u_plus[0] == pytest.approx(0.0, abs=1e-8)
+
+
+def test_slip_direction_curves_for_anisotropic_delassus():
+    rng = np.random.default_rng(2)
+    A = spd(rng, 5, 50)
+    J = rng.normal(size=(3, 5))
+    v = approaching(J, rng.normal(size=5), np.array([0, 0, 1.0]))
+    res = mbi.CoulombLaw(0.4, 0.2).apply(A, J, v, [0, 0, 1])
+    ut0 = res.u_minus[:2]
+    Pt = res.P[:2]
+    cosang = -(Pt @ ut0) / (np.linalg.norm(Pt) * np.linalg.norm(ut0))
+    assert cosang < 1 - 1e-4  # the friction impulse is not along the initial slip
+    assert np.linalg.norm(Pt) <= 0.2 * res.P_n * (1 + 1e-8)  # on or inside the cone
+
+
+@given(seeds, st.sampled_from(RESTITUTIONS[1:]), st.floats(0.0, 1.5), st.floats(0.0, 1.0))
+def test_poisson_and_energetic_never_create_energy(seed, restitution, mu, e):
+    rng = np.random.default_rng(seed)
+    d = int(rng.choice([2, 3]))
+    n = int(rng.integers(d, 7))
+    A = spd(rng, n, 100)
+    J = rng.normal(size=(d, n))
+    v = approaching(J, rng.normal(size=n), np.eye(d)[-1])
+    res = mbi.CoulombLaw(e, mu, restitution).apply(A, J, v, np.eye(d)[-1])
+    assert res.energy_loss >= -1e-8 * res.T_minus
+    assert res.mu <= mu * (1 + 1e-7) + 1e-12
+    assert res.P_n > 0
+
+
+def test_frictionless_coulomb_is_newton():
+    rng = np.random.default_rng(3)
+    A = spd(rng, 4, 10)
+    J = rng.normal(size=(3, 4))
+    v = approaching(J, rng.normal(size=4), np.array([0, 0, 1.0]))
+    for r in RESTITUTIONS:
+        res = mbi.CoulombLaw(0.6, 0.0, r).apply(A, J, v, [0, 0, 1])
+        np.testing.assert_allclose(res.v_plus, mbi.NewtonLaw(0.6).apply(A, J, v, [0, 0, 1]).v_plus, atol=1e-8)
+
+
+def test_coulomb_errors():
+    with pytest.raises(mbi.ParameterError, match="restitution"):
+        mbi.CoulombLaw(0.5, 0.3, "kinetic")
+    with pytest.raises(mbi.ParameterError, match="mu"):
+        mbi.CoulombLaw(0.5, -0.1)
+    with pytest.raises(mbi.ParameterError, match="exactly one"):
+        mbi.CoulombLaw(mu=0.3)
