@@ -1,9 +1,10 @@
-"""Command line: ``mbimpact demo|bench``."""
+"""Command line: ``mbimpact demo|bench|compare|figures``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from .errors import ImpactError
 
@@ -11,7 +12,8 @@ __all__ = ["main"]
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from .demo import demo_rows, format_table, write_csv
+    from .compare import format_table, write_csv
+    from .demo import demo_rows
 
     rows = demo_rows(e=args.e)
     print(f"UR5 tool0 striking a table at 1 m/s, facet restitution e = {args.e:g}\n")
@@ -22,8 +24,6 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from .bench import format_report, plot, run_bench, write_csv
 
     rows = run_bench(quick=args.quick, show_progress=not args.no_progress)
@@ -32,6 +32,49 @@ def _bench(args: argparse.Namespace) -> int:
         out = Path(args.out)
         print(f"\nwrote {write_csv(rows, out / 'bench.csv')}")
         print(f"wrote {plot(rows, out / 'bench.png')}")
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from . import compare as cmp
+    from .contact import PointContact
+    from .coulomb import CoulombLaw
+    from .demo import UR5_POSTURE
+    from .laws import NewtonLaw, RoughLaw
+    from .mechanism import Mechanism
+    from .roughness import Cone, Sawtooth
+
+    mech = Mechanism.from_urdf(args.urdf, args.floating) if args.urdf else Mechanism.from_robot(args.robot)
+    if args.q:
+        q = np.array([float(x) for x in args.q.split(",")])
+    else:
+        q = UR5_POSTURE if (args.robot == "ur5" and not args.urdf) else mech.neutral()
+    rough = Sawtooth(args.alpha) if args.planar else Cone(args.alpha)
+    laws = {
+        f"Newton e={args.e:g}": NewtonLaw(args.e),
+        f"rough {type(rough).__name__} alpha={args.alpha:g}": RoughLaw(rough, args.e),
+        f"Coulomb mu={args.mu:g} ({args.restitution})": CoulombLaw(args.e, args.mu, args.restitution),
+    }
+    contact = PointContact(args.frame, normal=(0.0, 0.0, 1.0), tangent=(1.0, 0.0, 0.0))
+    betas = np.linspace(0.0, args.max_beta, args.steps)
+    rows = cmp.compare_laws(mech, q, contact, laws, betas, args.speed)
+    shown = {float(b) for b in betas[:: max(1, len(betas) // 8)]} | {float(betas[-1])}
+    print(f"{mech.name} {args.frame}, approach speed {args.speed:g} m/s\n")
+    print(cmp.format_table([r for r in rows if r.beta_deg in shown]))
+    if args.out:
+        out = Path(args.out)
+        print(f"\nwrote {cmp.write_csv(rows, out / 'compare.csv')}")
+        print(f"wrote {cmp.plot(rows, out / 'compare.png', f'{mech.name} {args.frame}')}")
+    return 0
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from .figures import write_all
+
+    for path in write_all(args.out):
+        print(f"wrote {path}")
     return 0
 
 
@@ -48,6 +91,26 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--out", help="directory for bench.csv and bench.png")
     bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     bench.set_defaults(func=_bench)
+    cmp = sub.add_parser("compare", help="Newton vs rough vs Coulomb law over the incidence angle")
+    src = cmp.add_mutually_exclusive_group()
+    src.add_argument("--robot", default="ur5", help="example-robot-data robot (default ur5)")
+    src.add_argument("--urdf", help="URDF file instead of a robot name")
+    cmp.add_argument("--floating", action="store_true", help="free-flyer root for --urdf")
+    cmp.add_argument("--frame", default="tool0", help="contact frame (default tool0)")
+    cmp.add_argument("--q", help="posture, comma-separated (default: neutral; UR5: over the table)")
+    cmp.add_argument("--speed", type=float, default=1.0, help="approach speed of the contact point [m/s]")
+    cmp.add_argument("--alpha", type=float, default=0.3, help="roughness tilt α of the rough law")
+    cmp.add_argument("--planar", action="store_true", help="planar sawtooth instead of a spatial cone")
+    cmp.add_argument("--e", type=float, default=0.8, help="restitution of all laws")
+    cmp.add_argument("--mu", type=float, default=0.3, help="Coulomb friction coefficient")
+    cmp.add_argument("--restitution", default="energetic", choices=["newton", "poisson", "energetic"])
+    cmp.add_argument("--max-beta", type=float, default=85.0, help="largest incidence angle [deg]")
+    cmp.add_argument("--steps", type=int, default=35, help="number of incidence angles")
+    cmp.add_argument("--out", help="directory for compare.csv and compare.png")
+    cmp.set_defaults(func=_compare)
+    figs = sub.add_parser("figures", help="the paper's Fig. 1 and claims 1°-5° as PNG files")
+    figs.add_argument("--out", default="figures", help="output directory (default ./figures)")
+    figs.set_defaults(func=_figures)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))

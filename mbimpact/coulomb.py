@@ -79,8 +79,8 @@ class CoulombLaw(ImpactLaw):
 
     # ------------------------------------------------------------------ one impact
     def _stick_ratio(self, W: NDArray[np.float64]) -> NDArray[np.float64]:
-        """dP_t / dp_n that keeps u_t = 0: −W_tt⁻¹ W_tn."""
-        return -np.linalg.solve(W[:-1, :-1], W[:-1, -1])
+        """dP_t / dp_n that keeps u_t = 0: −W_tt⁻¹ W_tn (minimum norm if W_tt is singular)."""
+        return -np.linalg.lstsq(W[:-1, :-1], W[:-1, -1], rcond=1e-12)[0]
 
     def _invariant_slip(self, W: NDArray[np.float64]) -> NDArray[np.float64]:
         """Unit slip direction s kept by the flow from u_t = 0: W_tn − μ W_tt s ∥ +s."""

@@ -28,6 +28,7 @@ def test_demo_physics():
     rows = demo_rows()
     for beta in (20.0, 60.0):
         rough = [r for r in rows if r.beta_deg == beta and r.law.startswith("rough")]
+        assert all(r.u_t_plus > 0 for r in rough)
         mus = [r.mu for r in rough]
         assert mus == sorted(mus) and mus[0] > 0
         assert all(r.energy_loss > 0 for r in rows if r.beta_deg == beta)
