@@ -10,6 +10,7 @@ from .contact import PointContact, impact, impact_batch
 from .errors import (
     FrameNotFoundError,
     ImpactError,
+    IntegrationError,
     NameNotFoundError,
     NoFacingFacetError,
     NoImpactError,
@@ -25,6 +26,7 @@ from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
 from .restitution import e_from_k, impact_duration, k_from_e
 from .relief import HeightMap, Profile
+from .resolve import Resolved, RoughResolved, resolve, resolve_rough
 from .result import BatchResult, ImpactResult
 from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
 from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
@@ -38,6 +40,10 @@ __all__ = [
     "PointContact",
     "impact",
     "impact_batch",
+    "resolve",
+    "resolve_rough",
+    "Resolved",
+    "RoughResolved",
     "ContactMetric",
     "local_basis",
     # roughness measures
@@ -81,5 +87,6 @@ __all__ = [
     "FrameNotFoundError",
     "NoImpactError",
     "NoFacingFacetError",
+    "IntegrationError",
     "__version__",
 ]

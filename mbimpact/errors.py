@@ -20,6 +20,7 @@ __all__ = [
     "FrameNotFoundError",
     "NoImpactError",
     "NoFacingFacetError",
+    "IntegrationError",
 ]
 
 
@@ -65,3 +66,7 @@ class NoImpactError(ImpactError):
 
 class NoFacingFacetError(ImpactError):
     """No facet of the roughness faces the velocity: the set G* of (2.7) is empty."""
+
+
+class IntegrationError(ImpactError):
+    """The time integration of a compliant impact gave up (the message gives the time reached)."""
