@@ -10,6 +10,9 @@ Three measurements, all taken in the same run so that ratios are meaningful:
    the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v.
 3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
    increasing size and for several node counts.
+4. ``compliant`` — error of the impact resolved in time (:func:`mbimpact.resolve`)
+   against the closed facet law, and its cost, for M = 1e2 … 1e6 and several
+   integrator tolerances.
 """
 
 from __future__ import annotations
@@ -201,14 +204,44 @@ def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[Bench
     return rows
 
 
+def _compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+    """Resolved Kelvin–Voigt impact (full dynamics) against the closed facet law."""
+    from .resolve import resolve
+
+    mech = Mechanism.from_robot("ur5")
+    q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
+    contact = PointContact("tool0")
+    facet = np.array([math.sin(0.3), 0.0, math.cos(0.3)])
+    J = mech.point_jacobian(q, "tool0")
+    v = np.linalg.lstsq(J, [0.3, 0.0, -1.0], rcond=None)[0]
+    frame = contact.basis() @ np.column_stack([[math.cos(0.3), 0, -math.sin(0.3)], [0, 1, 0], facet])
+    law = NewtonLaw(E)
+    closed = law.apply(mech.mass_matrix(q), J, v, frame).dv
+    facet_contact = PointContact("tool0", normal=frame[:, 2])
+    t_closed = per_call(lambda: impact(mech, q, v, facet_contact, law), min_time)
+    rows = [BenchRow("compliant", "UR5 tool0, one facet", "closed facet law (Newton)", 0, 0.0, t_closed, 1.0)]
+    Ms = (1e2, 1e4, 1e6) if quick else (1e2, 1e3, 1e4, 1e5, 1e6)
+    for tol in ((1e-6,) if quick else (1e-4, 1e-6, 1e-9)):
+        for M in Ms:
+            def run() -> np.ndarray:
+                return resolve(mech, q, v, contact, facet, M=M, e=E, rtol=tol).dv
+
+            err = float(np.linalg.norm(run() - closed) / np.linalg.norm(closed))
+            t = per_call(run, min_time)
+            rows.append(BenchRow("compliant", f"rtol={tol:g}", "resolve (full dynamics)", M, err, t, t / t_closed))
+    progress.step("compliant")
+    return rows
+
+
 def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]:
     """Run the three parts; ``quick`` trims grids and repetitions (< 20 s)."""
     min_time = 0.005 if quick else 0.05
     acc_steps = 4 if quick else 10
     robots = OVERHEAD_ROBOTS[:2] + OVERHEAD_ROBOTS[2:] if not quick else ("ur5", "solo12")
     batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
-    progress = Progress(acc_steps + len(robots) + len(batch_robots), "bench", enabled=show_progress)
+    progress = Progress(acc_steps + len(robots) + len(batch_robots) + 1, "bench", enabled=show_progress)
     rows = _accuracy(quick, min_time, progress)
+    rows += _compliant(quick, min_time, progress)
     rows += _overhead(robots, min_time, progress)
     rows += _batch(batch_robots, 5_000 if quick else 100_000, progress)
     return rows
@@ -228,6 +261,12 @@ def format_report(rows: list[BenchRow]) -> str:
     for r in rows:
         if r.part == "overhead":
             out.append(f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |")
+    out += ["", "## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)", "",
+            "| tolerance | method | M | rel. error vs closed law | µs | time / closed law |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        if r.part == "compliant":
+            m = "" if r.param == 0 else f"{r.param:g}"
+            out.append(f"| {r.case} | {r.method} | {m} | {r.error:.2e} | {r.seconds * 1e6:.0f} | {r.ratio:.3g} |")
     out += ["", "## Batch throughput (apply_batch, one configuration)", "",
             "| robot | law | nodes | impacts/s | µs/impact |", "|---|---|---|---|---|"]
     for r in rows:
