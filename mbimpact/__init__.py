@@ -4,7 +4,7 @@ The pipeline: Pinocchio (A(q), J(q)) → metric (N, Delassus W) → roughness (f
 and their measure) → law (the flux-weighted average (2.8)) → result (I by (1.1)).
 """
 
-from . import compare, figures
+from . import compare, figures, vibro
 from .coulomb import CoulombLaw
 from .contact import PointContact, impact, impact_batch
 from .errors import (
@@ -28,6 +28,8 @@ from .restitution import e_from_k, impact_duration, k_from_e
 from .relief import HeightMap, Profile
 from .resolve import Resolved, RoughResolved, resolve, resolve_rough
 from .result import BatchResult, ImpactResult
+from .scene import Scene, SceneContact, SceneError, Surface, load_scene, scene_names
+from .simulate import ImpactRecord, Trajectory, simulate
 from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
 from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
 from .slopes import GaussianSlopes, IsotropicSlopes
@@ -44,6 +46,16 @@ __all__ = [
     "resolve_rough",
     "Resolved",
     "RoughResolved",
+    # scenes
+    "Scene",
+    "SceneContact",
+    "Surface",
+    "SceneError",
+    "load_scene",
+    "scene_names",
+    "simulate",
+    "Trajectory",
+    "ImpactRecord",
     "ContactMetric",
     "local_basis",
     # roughness measures

@@ -1,4 +1,4 @@
-"""Command line: ``mbimpact demo|bench|compare|figures``."""
+"""Command line: ``mbimpact demo|bench|compare|figures|run``."""
 
 from __future__ import annotations
 
@@ -78,6 +78,20 @@ def _figures(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run(args: argparse.Namespace) -> int:
+    from .run import summary, write_outputs
+    from .scene import load_scene
+    from .simulate import simulate
+
+    scene = load_scene(args.scene)
+    tr = simulate(scene, progress=not args.no_progress)
+    print(summary(scene, tr))
+    if args.out:
+        for path in write_outputs(scene, tr, args.out):
+            print(f"wrote {path}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mbimpact`` console script."""
     parser = argparse.ArgumentParser(prog="mbimpact", description="Impacts of mechanisms on rough surfaces (Ivanov's constructive model).")
@@ -111,6 +125,11 @@ def main(argv: list[str] | None = None) -> int:
     figs = sub.add_parser("figures", help="the paper's Fig. 1 and claims 1°-5° as PNG files")
     figs.add_argument("--out", default="figures", help="output directory (default ./figures)")
     figs.set_defaults(func=_figures)
+    run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
+    run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")
+    run.add_argument("--out", help="directory for trajectory.csv, impacts.csv and plots.png")
+    run.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+    run.set_defaults(func=_run)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))

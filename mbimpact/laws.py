@@ -188,11 +188,22 @@ class ImpactLaw(ABC):
         self, metric: ContactMetric, V: NDArray[np.float64], R: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
         """World-frame impulses P (B, d), contact velocities U (B, d), errors (B,), nodes."""
+        U = V @ metric.J.T
+        P, err, nodes = self.impulses_for(metric, U, R)
+        return P, U, err, nodes
+
+    def impulses_for(
+        self, metric: ContactMetric, U: NDArray[np.float64], R: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+        """Contact impulses P (B, d), world frame, for given contact velocities U (B, d).
+
+        ``U`` is the velocity of the contact point relative to the surface; it
+        differs from J v when the surface moves (a vibrating table).
+        """
         d = metric.d
         if self.dim is not None and self.dim != d:
             raise RoughnessError(f"{self!r} needs a {self.dim}-D contact space but J has {d} rows")
         n0 = R[:, -1]
-        U = V @ metric.J.T
         un = U @ n0
         bad = np.flatnonzero(~(un < 0.0))
         if bad.size:
@@ -223,7 +234,7 @@ class ImpactLaw(ABC):
             # rank-deficient J: report the minimum-norm impulse, the only one that
             # does not depend on how the quadrature split the part in null(Jᵀ)
             P = P @ proj
-        return P * speed[:, None], U, err, nodes
+        return P * speed[:, None], err, nodes
 
 
 class NewtonLaw(ImpactLaw):
