@@ -4,7 +4,7 @@ The pipeline: Pinocchio (A(q), J(q)) → metric (N, Delassus W) → roughness (f
 and their measure) → law (the flux-weighted average (2.8)) → result (I by (1.1)).
 """
 
-from . import compare, figures, vibro
+from . import compare, figures, sweep, vibro
 from .coulomb import CoulombLaw
 from .contact import PointContact, impact, impact_batch
 from .errors import (

@@ -114,7 +114,7 @@ def _save(fig: object, path: Path) -> Path:
 
 
 def write_all(out: str | Path) -> list[Path]:
-    """Write fig1.png, claims.png, rough_vs_coulomb.png and fig1.csv into ``out``."""
+    """Write fig1.png, claims.png, rough_vs_coulomb.png, stability_map.png and fig1.csv into ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -166,4 +166,15 @@ def write_all(out: str | Path) -> list[Path]:
     fig.suptitle("Constructive vs axiomatic impact, point mass, e = 0.8")
     fig.tight_layout()
     written.append(_save(fig, out / "rough_vs_coulomb.png"))
+
+    from .vibro import stability_map
+
+    sm = stability_map(np.array([0.2, 0.35, 0.5, 0.6]))
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    ax.plot(sm["alpha_fine"], sm["B"], "k-", label="B of (4.3): stable below")
+    ax.scatter(sm["alpha"][~sm["grew"]], sm["inv_rho"][~sm["grew"]], marker="o", label="simulated: decays")
+    ax.scatter(sm["alpha"][sm["grew"]], sm["inv_rho"][sm["grew"]], marker="x", color="r", label="simulated: grows")
+    ax.set(xlabel="cone tilt α", ylabel="ρ⁻¹ [ω²/g]", title="Section 4 stability map (e = 0.8, m = 1)")
+    ax.legend()
+    written.append(_save(fig, out / "stability_map.png"))
     return written

@@ -23,7 +23,7 @@ from .errors import ParameterError, RoughnessError
 from .roughness import Cone, Facets, Roughness, Sawtooth, Smooth
 from .slopes import IsotropicSlopes
 
-__all__ = ["Stability", "tilt_moments", "stability", "Orbit", "periodic_orbit", "deviation_run"]
+__all__ = ["Stability", "tilt_moments", "stability", "Orbit", "periodic_orbit", "deviation_run", "deviation_grows", "stability_map"]
 
 
 def tilt_moments(roughness: Roughness) -> tuple[int, Callable[[Callable[[np.ndarray], np.ndarray]], float]]:
@@ -127,3 +127,29 @@ def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, period
                   rtol=1e-10, name="vibro")
     tr = simulate(scene, samples=10)
     return np.array([tr.q[np.argmin(np.abs(tr.t - r.t)), 0] for r in tr.impacts])
+
+
+def deviation_grows(roughness: Roughness, e: float, m: int, inv_rho: float, periods: int = 16,
+                    x0: float = 1e-4) -> bool:
+    """Simulated verdict: does a small horizontal offset grow (×10 within the run)?"""
+    x = deviation_run(roughness, e, m, inv_rho, periods=periods, x0=x0)
+    return bool(np.abs(x).max() > 10 * x0)
+
+
+def stability_map(alphas: np.ndarray, e: float = 0.8, m: int = 1, factors: tuple[float, ...] = (0.5, 2.0),
+                  executor: object | None = None) -> dict[str, np.ndarray]:
+    """B(α) for a cone of facets, and simulated points at ρ⁻¹ = factor · B(α).
+
+    Returns the analytic boundary on a fine α grid and, for every simulated point,
+    α, ρ⁻¹ and whether the deviation grew. Simulations run through
+    :func:`mbimpact.sweep.sweep` (``executor``: any concurrent.futures Executor).
+    """
+    from .roughness import Cone
+    from .sweep import sweep
+
+    fine = np.linspace(float(np.min(alphas)), float(np.max(alphas)), 200)
+    boundary = np.array([stability(Cone(a), e, m).B for a in fine])
+    points = [(float(a), f * stability(Cone(a), e, m).B) for a in alphas for f in factors]
+    grew = sweep(deviation_grows, [(Cone(a), e, m, r) for a, r in points], executor)  # type: ignore[arg-type]
+    return {"alpha_fine": fine, "B": boundary, "alpha": np.array([p[0] for p in points]),
+            "inv_rho": np.array([p[1] for p in points]), "grew": np.array(grew)}

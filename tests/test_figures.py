@@ -45,7 +45,7 @@ def test_constructive_and_axiomatic_laws_disagree_qualitatively():
 
 def test_figures_command_writes_pngs(tmp_path, capsys):
     assert main(["figures", "--out", str(tmp_path)]) == 0
-    for name in ("fig1.png", "claims.png", "rough_vs_coulomb.png"):
+    for name in ("fig1.png", "claims.png", "rough_vs_coulomb.png", "stability_map.png"):
         assert (tmp_path / name).stat().st_size > 10_000
     with (tmp_path / "fig1.csv").open() as fh:
         rows = list(csv.DictReader(fh))
