@@ -120,3 +120,30 @@ def test_coulomb_errors():
         mbi.CoulombLaw(0.5, -0.1)
     with pytest.raises(mbi.ParameterError, match="exactly one"):
         mbi.CoulombLaw(mu=0.3)
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda", "solo12"])
+def test_plastic_sticking_impact_equals_pinocchio_three_row_impulse_dynamics(name):
+    """e = 0 with enough friction to stick: the contact point stops, u₊ = 0 — the problem
+    pin.impulseDynamics solves with the full translational Jacobian as constraint."""
+    import pinocchio as pin
+
+    from conftest import last_frame, mechanism
+
+    mech = mechanism(name)
+    frame = last_frame(mech)
+    for seed in range(50):  # a state whose stopping impulse pushes (P_n > 0): sticking is admissible
+        rng = np.random.default_rng(seed)
+        q = mech.random_configuration(rng)
+        J = mech.point_jacobian(q, frame)
+        v = approaching(J, rng.normal(size=mech.nv), np.array([0, 0, 1.0]))
+        u = J @ v
+        W = J @ np.linalg.solve(mech.mass_matrix(q), J.T)
+        P_stick = -np.linalg.solve(W, u)
+        if P_stick[2] > 0:
+            break
+    mu = 2.0 * np.linalg.norm(P_stick[:2]) / P_stick[2] + 1.0  # comfortably inside the cone
+    res = mbi.impact(mech, q, v, mbi.PointContact(frame), mbi.CoulombLaw(0.0, mu))
+    expected = pin.impulseDynamics(mech.model, mech.model.createData(), q, v, J, 0.0, 0.0)
+    np.testing.assert_allclose(res.v_plus, expected, atol=1e-7 * np.abs(v).max())
+    np.testing.assert_allclose(res.u_plus, 0.0, atol=1e-7 * np.linalg.norm(u))
