@@ -147,3 +147,47 @@ def test_plastic_sticking_impact_equals_pinocchio_three_row_impulse_dynamics(nam
     expected = pin.impulseDynamics(mech.model, mech.model.createData(), q, v, J, 0.0, 0.0)
     np.testing.assert_allclose(res.v_plus, expected, atol=1e-7 * np.abs(v).max())
     np.testing.assert_allclose(res.u_plus, 0.0, atol=1e-7 * np.linalg.norm(u))
+
+
+def admm_impulse(mech, q, v, frame, mu):
+    """Pinocchio's conic solver: plastic impact with a Coulomb cone at a point (world-aligned)."""
+    import pinocchio as pin
+
+    model, data = mech.model, mech.model.createData()
+    fr = model.frames[mech.frame_id(frame)]
+    pin.framesForwardKinematics(model, data, q)
+    R = data.oMi[fr.parentJoint].rotation
+    # the world is the first body, so that the constraint velocity is +J v, axes world-aligned
+    cm = pin.PointContactConstraintModel(model, 0, pin.SE3(np.eye(3), mech.frame_position(q, frame)),
+                                         fr.parentJoint, pin.SE3(R.T, fr.placement.translation))
+    cm.setFriction(mu)
+    models = pin.StdVec_ConstraintModel()
+    models.append(pin.ConstraintModel(cm))
+    datas = pin.StdVec_ConstraintData()
+    datas.append(models[0].createData())
+    cdata = cm.createData()
+    pin.computeJointJacobians(model, data, q)
+    cm.calc(model, data, cdata)
+    Jc = cm.jacobian(model, data, cdata)
+    W = Jc @ np.linalg.solve(pin.crba(model, data, q), Jc.T)
+    settings = pin.ADMMSolverSettings()
+    settings.absolute_feasibility_tol = settings.absolute_complementarity_tol = 1e-12
+    settings.relative_feasibility_tol = settings.relative_complementarity_tol = 1e-12
+    result = pin.ADMMSolverResult()
+    assert pin.ADMMConstraintSolver(3).solve(pin.DelassusOperatorDense(W), Jc @ v, models, datas, settings, result)
+    return Jc, result.retrieveConstraintImpulses()
+
+
+@pytest.mark.parametrize("name, frame", [("ur5", "tool0"), ("panda", "panda_hand_tcp")])
+def test_sticking_plastic_impact_against_pinocchio_admm_coulomb_cone(name, frame):
+    """e = 0 and enough friction to stick: the integrated Coulomb impact and Pinocchio's
+    ADMMConstraintSolver on a CoulombFrictionCone solve the same problem."""
+    mech = mbi.Mechanism.from_robot(name)
+    q = mech.neutral() + 0.3
+    J = mech.point_jacobian(q, frame)
+    v = np.linalg.lstsq(J, [0.2, 0.1, -1.0], rcond=None)[0]
+    Jc, lam = admm_impulse(mech, q, v, frame, 3.0)
+    np.testing.assert_allclose(Jc, J, atol=1e-12)
+    res = mbi.impact(mech, q, v, mbi.PointContact(frame), mbi.CoulombLaw(0.0, 3.0))
+    assert np.linalg.norm(res.P[:2]) < 3.0 * res.P[2]  # inside the cone: sticking
+    np.testing.assert_allclose(res.P, lam, rtol=1e-6, atol=1e-8)
