@@ -21,9 +21,10 @@ from .errors import (
     RoughnessError,
     ShapeError,
 )
-from .laws import AccuracyWarning, ImpactLaw, NewtonLaw, RoughLaw
+from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
 from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
+from .roughlaw import RoughLaw
 from .restitution import e_from_k, impact_duration, k_from_e
 from .relief import HeightMap, Profile
 from .resolve import Resolved, RoughResolved, resolve, resolve_rough
@@ -100,5 +101,10 @@ __all__ = [
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",
+    # submodules of the section-4, comparison and sweep tools
+    "compare",
+    "figures",
+    "sweep",
+    "vibro",
     "__version__",
 ]

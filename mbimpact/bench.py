@@ -29,7 +29,8 @@ import numpy as np
 import pinocchio as pin
 
 from .contact import PointContact, impact
-from .laws import ImpactLaw, NewtonLaw, RoughLaw
+from .laws import ImpactLaw, NewtonLaw
+from .roughlaw import RoughLaw
 from .mechanism import Mechanism
 from .progress import Progress
 from .roughness import Cone, Facets

@@ -42,7 +42,8 @@ def _compare(args: argparse.Namespace) -> int:
     from .contact import PointContact
     from .coulomb import CoulombLaw
     from .demo import UR5_POSTURE
-    from .laws import NewtonLaw, RoughLaw
+    from .laws import NewtonLaw
+    from .roughlaw import RoughLaw
     from .mechanism import Mechanism
     from .roughness import Cone, Sawtooth
 

@@ -120,7 +120,7 @@ def impact(
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
-    metric = ContactMetric.from_symmetric(mech.mass_matrix(q), J)
+    metric = ContactMetric.from_inverse(mech.mass_matrix(q), mech.inverse_mass_matrix(q), J)
     return law.apply_metric(metric, v, R)
 
 

@@ -11,7 +11,8 @@ import numpy as np
 
 from .compare import CompareRow, compare_laws
 from .contact import PointContact
-from .laws import ImpactLaw, NewtonLaw, RoughLaw
+from .laws import ImpactLaw, NewtonLaw
+from .roughlaw import RoughLaw
 from .mechanism import Mechanism
 from .roughness import Cone
 

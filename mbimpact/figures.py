@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from .coulomb import CoulombLaw
-from .laws import NewtonLaw, RoughLaw
+from .laws import NewtonLaw
+from .roughlaw import RoughLaw
 from .relief import Profile
 from .roughness import Cone, Sawtooth
 

@@ -147,6 +147,10 @@ class Mechanism:
         """A(q) from ``pin.crba`` (armature included), full symmetric, shape (nv, nv)."""
         return pin.crba(self.model, self.data, q).copy()
 
+    def inverse_mass_matrix(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
+        return pin.computeMinverse(self.model, self.data, q).copy()
+
     def point_jacobian(
         self, q: NDArray[np.float64], frame: str, point: NDArray[np.float64] | None = None
     ) -> NDArray[np.float64]:

@@ -10,6 +10,7 @@ impact laws need is therefore the factorisation of A once, ``A⁻¹ Jᵀ`` and `
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg
@@ -101,6 +102,26 @@ class ContactMetric:
         for arr in (A, J, AinvJt, W):
             arr.flags.writeable = False
         return cls(A, J, AinvJt, W)
+
+    @classmethod
+    def from_inverse(cls, A: NDArray[np.float64], Ainv: NDArray[np.float64], J: NDArray[np.float64]) -> ContactMetric:
+        """Fast path with A⁻¹ already known (``pin.computeMinverse``); falls back to the
+        checked factorisation if A⁻¹ is not finite (a singular mass matrix)."""
+        AinvJt = Ainv @ J.T
+        if not np.all(np.isfinite(AinvJt)):
+            return cls.from_symmetric(A, J)
+        return cls.from_factorised(A, J, AinvJt)
+
+    @cached_property
+    def range_projector(self) -> NDArray[np.float64] | None:
+        """Orthogonal projector onto range(W), or None when W has full rank."""
+        W = self.W
+        tr = float(np.trace(W))
+        if np.linalg.det(W) > 1e-12 * tr ** W.shape[0]:  # λ_min / λ_max ≥ det / tr^d: clearly full rank
+            return None
+        lam, vec = np.linalg.eigh(W)
+        keep = lam > 1e-12 * lam[-1]
+        return vec[:, keep] @ vec[:, keep].T
 
     @property
     def d(self) -> int:

@@ -10,6 +10,7 @@ convergence too). Everything is vectorised over rows of velocities and tilts.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +48,8 @@ def azimuth_rule(
         ``tilt_weight`` × the azimuth probability of each node; nodes on the
         excluded part of the circle never appear.
     """
+    if tilt.size == 1:
+        return _azimuth_rule_one(float(tilt[0, 0]), float(tilt_weight[0, 0]), U[0], nodes)
     ut = np.hypot(U[:, 0], U[:, 1])[:, None]  # (B, 1)
     un = np.abs(U[:, 2])[:, None]
     psi = np.arctan2(U[:, 1], U[:, 0])[:, None]
@@ -69,6 +72,28 @@ def azimuth_rule(
     normals[..., 2] = c[..., None]
     weights = tilt_weight[..., None] * w_az
     return normals.reshape(B, -1, 3), weights.reshape(B, -1)
+
+
+def _azimuth_rule_one(
+    tilt: float, tilt_weight: float, u: NDArray[np.float64], nodes: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`azimuth_rule` for one velocity and one tilt, in scalar arithmetic (single calls)."""
+    ut, un = math.hypot(u[0], u[1]), abs(u[2])
+    psi = math.atan2(u[1], u[0])
+    s, c = math.sin(tilt), math.cos(tilt)
+    if s * ut <= c * un:
+        phi = psi + (2.0 * math.pi / nodes) * np.arange(nodes)
+        w = np.full(nodes, tilt_weight / nodes)
+    else:
+        half = math.pi - math.acos(min(1.0, c * un / (s * ut)))
+        x, gw = gauss_legendre(nodes)
+        phi = psi + math.pi + half * x
+        w = gw * (tilt_weight * half / (2.0 * math.pi))
+    normals = np.empty((1, nodes, 3))
+    normals[0, :, 0] = s * np.cos(phi)
+    normals[0, :, 1] = s * np.sin(phi)
+    normals[0, :, 2] = c
+    return normals, w[None, :]
 
 
 def tilt_segments(

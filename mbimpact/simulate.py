@@ -16,7 +16,6 @@ undeclared effects can be shown to cost nothing.
 from __future__ import annotations
 
 import math
-import math
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -26,7 +25,8 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from .errors import IntegrationError
-from .laws import ImpactLaw, NewtonLaw, RoughLaw
+from .laws import ImpactLaw, NewtonLaw
+from .roughlaw import RoughLaw
 from .metric import ContactMetric, local_basis
 from .progress import Progress
 from .resolve import resolve

@@ -1,6 +1,5 @@
 """Scenes: validation, the simulator's declared-effects-only work, hard cases, section 4."""
 
-import math
 
 import numpy as np
 import pytest
