@@ -30,7 +30,7 @@ from .contact import PointContact
 from .errors import IntegrationError, NoFacingFacetError, NoImpactError, ParameterError, ShapeError
 from .mechanism import Mechanism
 from .restitution import impact_duration, k_from_e
-from .roughness import Roughness
+from .roughness import Roughness, check_normals
 
 __all__ = ["Resolved", "RoughResolved", "resolve", "resolve_rough"]
 
@@ -179,9 +179,7 @@ def resolve(
         local = np.tile(local, (c, 1)) if local.ndim == 1 else local
         if local.shape != (c, 3):
             raise ShapeError(f"facets must have shape (3,) or ({c}, 3), got {local.shape}")
-        norms = np.linalg.norm(local, axis=1)
-        if np.any(np.abs(norms - 1) > 1e-9) or np.any(local[:, 2] <= 0):
-            raise ParameterError("facet normals must be unit vectors with a positive component along n0")
+        local = check_normals("facets", local)
 
     model = mech.model.copy()
     if not gravity or dynamics == "impact":

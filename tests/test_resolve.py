@@ -142,3 +142,30 @@ def test_resolve_errors():
         mbi.resolve(mech, UR5_Q, v, contact, surface_points=[p + [0, 0, 0.01]])
     res = mbi.resolve(mech, UR5_Q, v, contact, surface_points=[p], M=1e3)
     assert res.status == "separated"
+
+
+def test_resolve_rough_full_dynamics_approaches_the_rough_law():
+    mech, contact, v = ur5_case()
+    closed = mbi.impact(mech, UR5_Q, v, contact, mbi.RoughLaw(mbi.Cone(0.3), 0.6)).dv
+    sampled = mbi.resolve_rough(mech, UR5_Q, v, contact, mbi.Cone(0.3), samples=150, seed=4, M=1e4, e=0.6)
+    bias = 5e-3 * np.abs(closed).max()  # O(1/M) of the full dynamics at M = 1e4
+    assert np.all(np.abs(sampled.dv - closed) <= 3 * sampled.ci95 + bias)
+
+
+def test_rocking_block_corner_strike_with_the_other_corner_on_the_ground():
+    """Both corners on the ground, the block turning about one of them: only the other strikes."""
+    rod = mbi.Mechanism.from_model("planar_rod")
+    q = np.array([0.0, 0.0, 1.0, 0.0])
+    omega = 1.0
+    # rotation about end_a (x = -0.5): end_a still, end_b moving down
+    J_a = rod.point_jacobian(q, "end_a")
+    v = np.linalg.lstsq(np.vstack([J_a[[0, 2]], [0, 0, 1.0]]), [0.0, 0.0, omega], rcond=None)[0]
+    assert rod.point_jacobian(q, "end_b")[2] @ v < 0
+    ends = [mbi.PointContact("end_a"), mbi.PointContact("end_b")]
+    res = mbi.resolve(rod, q, v, ends, M=1e4, e=0.5, gravity=False)
+    assert res.status == "separated"
+    A = rod.mass_matrix(q)
+    assert res.v_plus @ A @ res.v_plus <= v @ A @ v
+    assert res.contact_impulse[1] > 0  # the striking corner pushes
+    u_a = rod.point_jacobian(q, "end_a")[2] @ res.v_plus
+    assert u_a >= -1e-9  # the pivot corner is not driven into the ground

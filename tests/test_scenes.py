@@ -159,3 +159,32 @@ def test_scene_errors_for_tables(tmp_path):
         mbi.load_scene(path)
     with pytest.raises(mbi.SceneError, match="shipped scenes"):
         mbi.load_scene("no_such_scene")
+
+
+def test_rimless_wheel_rolls_down_the_slope_without_entering_it():
+    tr = mbi.simulate(mbi.load_scene("rimless_wheel_slope"), samples=300)
+    assert tr.status == "completed" and len(tr.impacts) > 10
+    assert tr.q[-1, 0] > 1.0 and tr.q[-1, 1] < tr.q[0, 1] - 0.1  # down the slope (towards +x, −z)
+    assert tr.gaps.min() > -1e-9
+    assert np.all(np.diff(tr.energy) <= 1e-8)
+
+
+def test_grazing_touch_down():
+    """Released on the plane sliding, no normal velocity: the first impact is grazing.
+
+    On a smooth plane the point comes to rest at once and slides on; on a rough one
+    the facets facing the motion throw it up (κ ≫ 1, property 4°), and it hops along,
+    losing energy at every impact."""
+    mech = mbi.Mechanism.from_model("point_mass_3d")
+
+    def run(law):
+        scene = Scene(mech, np.zeros(3), np.array([1.0, 0.0, 0.0]), (SceneContact("mass", law, Surface()),), duration=0.5)
+        return mbi.simulate(scene, samples=50)
+
+    smooth = run(mbi.NewtonLaw(0.5))
+    assert smooth.resting == (True,) and len(smooth.impacts) <= 2
+    assert smooth.q[-1, 0] == pytest.approx(0.5, rel=1e-6) and smooth.gaps.min() > -1e-9
+    rough = run(mbi.RoughLaw(mbi.Cone(0.3), 0.5))
+    assert rough.impacts[0].kappa > 100 and rough.impacts[0].un_plus > 0.1
+    assert rough.gaps.min() > -1e-9 and np.all(np.diff(rough.energy) <= 1e-9)
+    assert rough.v[-1, 0] < 0.1  # the hops brake the sliding
