@@ -130,15 +130,15 @@ class RoughLaw(ImpactLaw):
         flux = np.where(facing, -s / np.sqrt(safe_q) if self.flux == "metric" else -s, 0.0)
         return p * flux, np.where(facing, -s / safe_q, 0.0), m
 
-    def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int) -> NDArray[np.float64]:
-        """(2.8) with the rule of ``nodes`` nodes: contact impulses (B, d), local frame."""
+    def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], int]:
+        """(2.8) with the rule of ``nodes`` nodes: contact impulses (B, d), local frame, and the facet count."""
         m, p = self.roughness.rule_batch(U, nodes)
         w, c, m = self._terms(m, p, W, U)
         total = w.sum(axis=1)
         self._check_facing(total, U)
         wc = w * c
         num = wc @ m if m.ndim == 2 else np.einsum("bk,bkd->bd", wc, m)
-        return (1.0 + self.e) * num / total[:, None]
+        return (1.0 + self.e) * num / total[:, None], p.shape[-1]
 
     def _check_facing(self, total: NDArray[np.float64], U: NDArray[np.float64]) -> None:
         empty = np.flatnonzero(~(total > 0.0))
@@ -169,22 +169,23 @@ class RoughLaw(ImpactLaw):
             return P, err, self.samples
         rough = self.roughness
         if rough.exact:
-            return self._average(W, U, 1), np.zeros(len(U)), len(rough.rule_batch(U[:1], 1)[1].ravel())
+            P, facets = self._average(W, U, 1)
+            return P, np.zeros(len(U)), facets
         if self.nodes is not None:
-            P = self._average(W, U, self.nodes)
-            coarse = self._average(W, U, max(1, self.nodes // 2))
+            P, _ = self._average(W, U, self.nodes)
+            coarse, _ = self._average(W, U, max(1, self.nodes // 2))
             return P, _relative_change(P, coarse, W), self.nodes
         return self._adaptive(W, U)
 
     def _adaptive(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
         """Double the node count on the rows that have not converged to ``rtol``."""
         nodes = self.roughness.initial_nodes
-        P = self._average(W, U, nodes)
+        P, _ = self._average(W, U, nodes)
         err = np.full(len(U), np.inf)
         todo = np.arange(len(U))
         while True:
             nodes *= 2
-            fine = self._average(W, U[todo], nodes)
+            fine, _ = self._average(W, U[todo], nodes)
             err[todo] = _relative_change(fine, P[todo], W)
             P[todo] = fine
             todo = todo[err[todo] > self.rtol]
