@@ -47,7 +47,7 @@ class RoughLaw(ImpactLaw):
     rtol : float
         Relative accuracy of the adaptive quadrature for measures that are not
         finite; node counts are doubled until two successive results agree to
-        ``rtol``.
+        ``rtol`` (or to the rounding floor 100 ε √K of a K-facet sum, if larger).
     nodes : int, optional
         Fixed node count instead of adaptive refinement (the error estimate then
         compares with ``nodes // 2``).
@@ -185,10 +185,12 @@ class RoughLaw(ImpactLaw):
         todo = np.arange(len(U))
         while True:
             nodes *= 2
-            fine, _ = self._average(W, U[todo], nodes)
+            fine, facets = self._average(W, U[todo], nodes)
             err[todo] = _relative_change(fine, P[todo], W)
             P[todo] = fine
-            todo = todo[err[todo] > self.rtol]
+            # two results that differ only by rounding (≈ ε √K for K facets) have converged
+            floor = 100 * np.finfo(float).eps * np.sqrt(facets)
+            todo = todo[err[todo] > max(self.rtol, floor)]
             if todo.size == 0:
                 return P, err, nodes
             if nodes * 2 > self.max_nodes:

@@ -84,7 +84,7 @@ def test_gaussian_slopes_monte_carlo_agrees_with_quadrature(sigma, beta, dim):
     v[0], v[-1] = math.sin(beta), -math.cos(beta)
     exact = mbi.RoughLaw(rough, 0.5).apply(np.eye(dim), np.eye(dim), v, np.eye(dim)[-1])
     mc = mbi.RoughLaw(rough, 0.5, method="mc", samples=20_000, seed=3).apply(np.eye(dim), np.eye(dim), v, np.eye(dim)[-1])
-    assert exact.error_estimate <= 1e-12
+    assert exact.error_estimate <= 1e-11  # rtol = 1e-12, or the rounding floor of the sum
     err = np.linalg.norm(mc.P - exact.P) / np.linalg.norm(exact.P)
     assert err <= 6 * mc.error_estimate + 1e-12  # within 6 standard errors
 
