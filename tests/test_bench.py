@@ -27,4 +27,4 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     comp = [r for r in rows if r["part"] == "compliant" and r["method"].startswith("resolve")]
     errs = [float(r["error"]) for r in sorted(comp, key=lambda r: float(r["param"]))]
     assert errs == sorted(errs, reverse=True) and errs[-1] < 1e-4  # O(1/M) towards the closed law
-    assert all(float(r["ratio"]) > 10 for r in comp)  # the compliant route is always the slower one
+    assert all(float(r["ratio"]) > 1e3 for r in comp)  # against the batched closed law
