@@ -169,3 +169,27 @@ def test_rocking_block_corner_strike_with_the_other_corner_on_the_ground():
     assert res.contact_impulse[1] > 0  # the striking corner pushes
     u_a = rod.point_jacobian(q, "end_a")[2] @ res.v_plus
     assert u_a >= -1e-9  # the pivot corner is not driven into the ground
+
+
+def test_flag_where_contact_by_contact_disagrees():
+    rod = mbi.Mechanism.from_model("planar_rod")
+    q = np.array([0.0, 0.5, 1.0, 0.0])
+    v = np.array([0.0, -1.0, 0.0])
+    ends = [mbi.PointContact("end_a"), mbi.PointContact("end_b")]
+    flat = mbi.compare_simultaneous(rod, q, v, ends, mbi.NewtonLaw(0.8), M=[1e3, 1e4], e=0.8, gravity=False, t_max=3.0)
+    assert flat.disagree and flat.difference > 0.05
+    # one contact only: the two routes agree up to O(1/M)
+    single = mbi.compare_simultaneous(rod, np.array([0.0, 0.5, math.cos(0.4), math.sin(0.4)]), v, ends[:1],
+                                      mbi.NewtonLaw(0.8), M=1e6, e=0.8, gravity=False)
+    assert not single.disagree and single.difference < 1e-3
+
+
+def test_a_contact_that_reopens_and_closes_during_the_impact():
+    """Stiffness ratio 2 on the flat rod: the stiff end leaves and strikes again (chattering)."""
+    rod = mbi.Mechanism.from_model("planar_rod")
+    ends = [mbi.PointContact("end_a"), mbi.PointContact("end_b")]
+    res = mbi.resolve(rod, np.array([0.0, 0.5, 1.0, 0.0]), np.array([0.0, -1.0, 0.0]), ends, M=[1e3, 2e3], e=0.8,
+                      gravity=False, t_max=3.0)
+    f = res.f[1][np.abs(res.f[1]) > 1e-12]
+    entries = int(np.sum(np.diff(np.sign(f)) < 0)) + int(f[0] < 0)
+    assert res.status == "separated" and entries == 2
