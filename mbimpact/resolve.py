@@ -262,7 +262,10 @@ def resolve(
     y[nv: 2 * nv] = v0
     t0 = 0.0
     # absolute tolerances per block: displacements are O(|v| τ), velocities O(|v|)
-    vscale = max(float(np.abs(v0).max()), 1e-300)
+    # absolute tolerances on the scale of the jump, (1+e)|ḟ₀||N| per contact — not of |v|, which
+    # at grazing incidence is far larger than the jump the integration must resolve
+    N0 = np.linalg.solve(A0, grads0.T) / scale  # (nv, c), unit A-metric normals
+    vscale = max(float(np.max(2.0 * np.abs(rate) * np.abs(N0).max(axis=0))), 1e-300)
     atol = np.concatenate([np.full(nv, vscale / Mv.max()), np.full(nv, vscale),
                            np.full(nv + c, vscale * float(np.sqrt(W0).min()))]) * rtol
     nudge = 1e-6 / float(Mv.max())  # steps off an event so that no event function starts at 0

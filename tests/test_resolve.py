@@ -193,3 +193,14 @@ def test_a_contact_that_reopens_and_closes_during_the_impact():
     f = res.f[1][np.abs(res.f[1]) > 1e-12]
     entries = int(np.sum(np.diff(np.sign(f)) < 0)) + int(f[0] < 0)
     assert res.status == "separated" and entries == 2
+
+
+@pytest.mark.parametrize("ratio", [1e-3, 1e-6])
+def test_grazing_touch_down(ratio):
+    mech, contact, _ = ur5_case()
+    J = mech.point_jacobian(UR5_Q, "tool0")
+    v = np.linalg.lstsq(J, [1.0, 0.0, -ratio], rcond=None)[0]
+    res = mbi.resolve(mech, UR5_Q, v, contact, M=1e4, e=0.5, dynamics="impact")
+    assert res.status == "separated" and np.all(np.isfinite(res.v_plus))
+    np.testing.assert_allclose(res.dv, mbi.impact(mech, UR5_Q, v, contact, mbi.NewtonLaw(0.5)).dv, rtol=1e-5,
+                               atol=1e-6 * ratio)
