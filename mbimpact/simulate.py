@@ -43,7 +43,10 @@ _GAP_SLACK = 1e-10
 
 @dataclass(frozen=True)
 class ImpactRecord:
-    """One impact: time, contact, relative contact velocity before/after, κ, μ, impulse, energy loss."""
+    """One impact: time, contact, relative contact velocity before/after, κ, μ, impulse, energy loss.
+
+    A record with ``rest=True`` marks the switch to resting contact (its un_minus is the
+    rebound velocity that fell below ``rest_velocity``)."""
 
     t: float
     contact: int
@@ -55,6 +58,7 @@ class ImpactRecord:
     mu: float
     impulse: float
     energy_loss: float
+    rest: bool = False  # the contact switched to resting contact here
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +78,7 @@ class Trajectory:
 
     def first_rest_time(self) -> float | None:
         """Time at which a contact first came to rest (None if never)."""
-        rest = [r.t for r in self.impacts if r.un_plus == 0.0 and r.kappa == 0.0]
+        rest = [r.t for r in self.impacts if r.rest]
         return rest[0] if rest else None
 
 
@@ -363,7 +367,7 @@ def _impact(sim: _Sim, i: int, q: NDArray[np.float64], v: NDArray[np.float64], t
         v = _hold(sim, c, q, v, n, J)  # no residual normal (or, pinned, any) velocity
         sim.resting[i] = True
         sim.work["rest"] += 1
-        impacts.append(ImpactRecord(t, i, float(n @ u), 0.0, 0.0, 0.0, 0.0, 0.0, float(np.linalg.norm(P)), 0.0))
+        impacts.append(ImpactRecord(t, i, float(n @ u), 0.0, 0.0, 0.0, 0.0, 0.0, float(np.linalg.norm(P)), 0.0, rest=True))
     elif float(n @ u) < 0.0:
         raise IntegrationError(f"contact {i} still approaches its moving surface after 50 impacts at t = {t:.6g}")
     for j, resting in enumerate(sim.resting):  # an impact elsewhere moves the resting contacts too
