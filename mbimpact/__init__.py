@@ -27,7 +27,9 @@ from .metric import ContactMetric, local_basis
 from .roughlaw import RoughLaw
 from .restitution import e_from_k, impact_duration, k_from_e
 from .relief import HeightMap, Profile
-from .resolve import Resolved, RoughResolved, SimultaneousReport, compare_simultaneous, resolve, resolve_rough
+from .resolve import Resolved, resolve
+from .resolve_rough import RoughResolved, resolve_rough
+from .simultaneous import SimultaneousReport, compare_simultaneous
 from .result import BatchResult, ImpactResult
 from .scene import Scene, SceneContact, SceneError, Surface, load_scene, scene_names
 from .simulate import ImpactRecord, Trajectory, simulate
