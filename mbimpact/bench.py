@@ -310,10 +310,10 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
             title="Accuracy vs time, cone α = 0.4 (all β, both cases)")
     ax1.legend(fontsize=8)
     bat = [r for r in rows if r.part == "batch"]
-    for method in dict.fromkeys((r.method, r.param) for r in bat):
-        pts = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6) for r in bat if (r.method, r.param) == method)
-        label = method[0] + (f" {method[1]:g}" if method[1] else "")
-        ax2.plot(*zip(*pts), marker="o", label=label)
+    for name, param in dict.fromkeys((r.method, r.param) for r in bat):
+        series = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6)
+                        for r in bat if (r.method, r.param) == (name, param))
+        ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
     ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
     ax2.legend(fontsize=8)
     fig.tight_layout()

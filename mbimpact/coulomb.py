@@ -88,7 +88,7 @@ class CoulombLaw(ImpactLaw):
         if len(Wtn) == 1:
             return np.array([math.copysign(1.0, Wtn[0])])
 
-        def rate(theta: float) -> NDArray[np.float64]:
+        def rate(theta: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
             s = np.array([math.cos(theta), math.sin(theta)])
             return Wtn - self.mu * Wtt @ s, s
 

@@ -45,10 +45,10 @@ def write_outputs(scene: Scene, tr: Trajectory, out: str | Path) -> list[Path]:
             w.writerow([row[0], *row[1], *row[2], row[3], *row[4], *row[5]])
     log = out / "impacts.csv"
     with log.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=[f.name for f in fields(ImpactRecord)])
-        w.writeheader()
+        dw = csv.DictWriter(fh, fieldnames=[f.name for f in fields(ImpactRecord)])
+        dw.writeheader()
         for r in tr.impacts:
-            w.writerow(asdict(r))
+            dw.writerow(asdict(r))
     import matplotlib
 
     matplotlib.use("Agg")

@@ -153,7 +153,9 @@ class _Sim:
         pin.forwardKinematics(self.model, self.data, q, v, np.zeros(self.nv))
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
-        rows, drift, normal_rows = [], [], []
+        rows: list[NDArray[np.float64]] = []
+        drift: list[float] = []
+        normal_rows: list[tuple[int, NDArray[np.float64]]] = []
         for i in rest:
             c = self.scene.contacts[i]
             _, n, J, _ = self.contact_state(i, q, v, t, kinematics=False)
