@@ -8,7 +8,6 @@ no meshes are loaded.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array
 from .errors import FrameNotFoundError, ParameterError, RobotNotFoundError
-from .robots import model_path, robot_urdf
+from .robots import close_matches, model_path, robot_urdf
 
 __all__ = ["Mechanism"]
 
@@ -109,9 +108,8 @@ class Mechanism:
         """Index of a frame, with the close matches in the error if it is unknown."""
         if not self.model.existFrame(frame):
             names = self.frame_names
-            close = difflib.get_close_matches(frame, names, n=5, cutoff=0.5)
-            close += [n for n in names if frame.lower() in n.lower() and n not in close]
-            hint = f"frames with {frame!r} or close to it: {', '.join(close[:8])}" if close else (
+            close = close_matches(frame, names)
+            hint = f"frames with {frame!r} or close to it: {', '.join(close)}" if close else (
                 f"{len(names)} frames, e.g. {', '.join(names[-5:])}"
             )
             raise FrameNotFoundError(f"frame {frame!r} not found in {self.name}; {hint}")

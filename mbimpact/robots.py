@@ -14,7 +14,7 @@ from pathlib import Path
 
 from .errors import RobotNotFoundError
 
-__all__ = ["ROBOTS", "robot_names", "robot_urdf", "robots_dir", "models_dir", "model_path", "model_names"]
+__all__ = ["ROBOTS", "robot_names", "robot_urdf", "robots_dir", "models_dir", "model_path", "model_names", "close_matches"]
 
 #: name -> (URDF path below the robots folder, has a floating base)
 ROBOTS: dict[str, tuple[str, bool]] = {
@@ -91,10 +91,16 @@ def robot_names() -> list[str]:
     return sorted(ROBOTS)
 
 
-def _unknown(kind: str, name: str, names: list[str]) -> RobotNotFoundError:
+def close_matches(name: str, names: list[str]) -> list[str]:
+    """Up to 8 names similar to ``name`` or containing it (for error messages)."""
     close = difflib.get_close_matches(name, names, n=5, cutoff=0.5)
     close += [n for n in names if name.lower() in n.lower() and n not in close]
-    hint = f"close matches: {', '.join(close[:8])}" if close else f"known: {', '.join(names)}"
+    return close[:8]
+
+
+def _unknown(kind: str, name: str, names: list[str]) -> RobotNotFoundError:
+    close = close_matches(name, names)
+    hint = f"close matches: {', '.join(close)}" if close else f"known: {', '.join(names)}"
     return RobotNotFoundError(f"{kind} {name!r} not found; {hint}")
 
 
