@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -26,6 +28,17 @@ def as_array(name: str, x: ArrayLike, ndim: int, shape: tuple[int | None, ...] |
     if not np.all(np.isfinite(a)):
         raise NonFiniteError(f"{name} contains NaN or infinity")
     return a
+
+
+def as_vector(name: str, x: ArrayLike, n: int) -> NDArray[np.float64]:
+    """:func:`as_array` for a vector of length ``n``, with a fast path for float arrays.
+
+    A float64 vector of the right length whose squared norm is finite is returned
+    as is (single impacts are called in loops); anything else takes the full check.
+    """
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (n,) and math.isfinite(x @ x):
+        return x
+    return as_array(name, x, 1, (n,))
 
 
 def as_scalar(name: str, x: float, lo: float, hi: float, *, hi_open: bool = False) -> float:

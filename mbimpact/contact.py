@@ -72,6 +72,7 @@ class PointContact:
             R = np.column_stack([self.tangent, np.cross(n0, self.tangent), n0])
         R.flags.writeable = False
         object.__setattr__(self, "_basis", R)
+        object.__setattr__(self, "_offset", self.point if np.any(self.point) else None)
 
     def basis(self) -> NDArray[np.float64]:
         """World rotation (3, 3): columns t₁, t₂, n⁰."""
@@ -87,7 +88,7 @@ class PointContact:
         frame : ndarray, shape (d, d)
             Rotation whose last column is n⁰ in the coordinates of ``J``.
         """
-        Jp = mech.point_jacobian(q, self.frame, self.point)
+        Jp = mech.point_jacobian(q, self.frame, self._offset)  # type: ignore[attr-defined]
         R = self.basis()
         if d == 3:
             return Jp, R

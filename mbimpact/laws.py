@@ -126,22 +126,30 @@ class ImpactLaw(ABC):
         self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]
     ) -> ImpactResult:
         """:meth:`apply` on an already validated metric and contact basis ``R`` (d, d)."""
-        P, u, err, nodes = self._impulses(metric, v[None, :], R)
-        dv = metric.AinvJt @ P[0]
+        u = metric.J @ v
+        P, err, nodes = self.impulse_for(metric, u, R)
+        dv = metric.AinvJt @ P
         return ImpactResult(
             v_minus=v.copy(),
             v_plus=v + dv,
             dv=dv,
-            P=P[0],
-            u_minus=u[0],
-            u_plus=u[0] + metric.W @ P[0],
+            P=P,
+            u_minus=u,
+            u_plus=u + metric.W @ P,
             n0=R[:, -1].copy(),
             A=metric.A,
             J=metric.J,
             law=self,
-            error_estimate=float(err[0]),
+            error_estimate=err,
             nodes=nodes,
         )
+
+    def impulse_for(
+        self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], float, int]:
+        """:meth:`impulses_for` for one contact velocity ``u`` (d,): P (d,), error estimate, nodes."""
+        P, err, nodes = self.impulses_for(metric, u[None, :], R)
+        return P[0], float(err[0]), nodes
 
     # ------------------------------------------------------------------ batch
     def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:
@@ -203,16 +211,17 @@ class ImpactLaw(ABC):
             )
         # Every law is positively homogeneous of degree 1 in u (1°): work with unit
         # directions so that velocity scales far from 1 neither under- nor overflow.
-        speed = np.linalg.norm(U, axis=1)
+        speed = np.sqrt(np.einsum("bd,bd->b", U, U))
         W_local = R.T @ metric.W @ R
         U_local = (U @ R) / speed[:, None]
-        P = np.empty_like(U)
-        err = np.empty(len(U))
-        nodes = 0
-        for start in range(0, len(U), _BLOCK):
-            block = slice(start, start + _BLOCK)
-            P[block], err[block], nodes_b = self.contact_impulses(W_local, U_local[block])
-            nodes = max(nodes, nodes_b)
+        if len(U) <= _BLOCK:
+            P, err, nodes = self.contact_impulses(W_local, U_local)
+        else:
+            P, err, nodes = np.empty_like(U), np.empty(len(U)), 0
+            for start in range(0, len(U), _BLOCK):
+                block = slice(start, start + _BLOCK)
+                P[block], err[block], nodes_b = self.contact_impulses(W_local, U_local[block])
+                nodes = max(nodes, nodes_b)
         P = P @ R.T
         proj = metric.range_projector
         if proj is not None:
@@ -247,3 +256,17 @@ class NewtonLaw(ImpactLaw):
         P = np.zeros_like(U)
         P[:, -1] = -(1.0 + self.e) * U[:, -1] / W[-1, -1]
         return P, np.zeros(len(U)), 1
+
+    def impulse_for(
+        self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], float, int]:
+        # One velocity: P = −(1+e) (n⁰·u) / (n⁰ᵀWn⁰) n⁰ in a handful of float
+        # operations (no local frame needed); the checks are those of impulses_for.
+        if metric.range_projector is not None:
+            return super().impulse_for(metric, u, R)
+        n0 = R[:, -1]
+        un = float(u @ n0)
+        w_nn = float(n0 @ metric.W @ n0)
+        if not un < 0.0 or not w_nn > _DEGENERATE * float(metric.W.trace()):
+            return super().impulse_for(metric, u, R)  # raises the named error
+        return (-(1.0 + self.e) * un / w_nn) * n0, 0.0, 1

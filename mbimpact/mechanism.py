@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ._validate import as_array
+from ._validate import as_vector
 from .errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from .robots import close_matches, model_path, robot_urdf
 
@@ -41,11 +41,13 @@ class Mechanism:
     name: str = "mechanism"
     source: Path | None = None
     data: Any = field(init=False, repr=False)
+    _frame_ids: dict[str, int] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, pin.Model):
             raise ParameterError(f"model must be a pinocchio.Model, got {type(self.model).__name__}")
         object.__setattr__(self, "data", self.model.createData())
+        object.__setattr__(self, "_frame_ids", {})
 
     # ------------------------------------------------------------ constructors
     @classmethod
@@ -106,6 +108,9 @@ class Mechanism:
 
     def frame_id(self, frame: str) -> int:
         """Index of a frame, with the close matches in the error if it is unknown."""
+        fid = self._frame_ids.get(frame)
+        if fid is not None:
+            return fid
         if not self.model.existFrame(frame):
             names = self.frame_names
             close = close_matches(frame, names)
@@ -113,7 +118,8 @@ class Mechanism:
                 f"{len(names)} frames, e.g. {', '.join(names[-5:])}"
             )
             raise FrameNotFoundError(f"frame {frame!r} not found in {self.name}; {hint}")
-        return int(self.model.getFrameId(frame))
+        fid = self._frame_ids[frame] = int(self.model.getFrameId(frame))
+        return fid
 
     # ------------------------------------------------------------ states
     def neutral(self) -> NDArray[np.float64]:
@@ -131,9 +137,10 @@ class Mechanism:
 
     def check_state(self, q: ArrayLike, v: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Validate ``q`` (nq,) and ``v`` (nv,); quaternions must be normalised."""
-        q = as_array("q", q, 1, (self.nq,))
-        v = as_array("v", v, 1, (self.nv,))
-        if not pin.isNormalized(self.model, q, 1e-9):
+        q = as_vector("q", q, self.nq)
+        v = as_vector("v", v, self.nv)
+        # only quaternion and unit-complex joints (nq > nv) have a norm to check
+        if self.model.nq != self.model.nv and not pin.isNormalized(self.model, q, 1e-9):
             raise ParameterError(
                 "q is not a valid configuration: a quaternion or unit-complex block is not normalised; "
                 "use pinocchio.normalize(model, q)"
@@ -165,7 +172,7 @@ class Mechanism:
         # computeFrameJacobian also updates data.oMf[fid], used for the offset below
         J6 = pin.computeFrameJacobian(self.model, self.data, q, fid, pin.LOCAL_WORLD_ALIGNED)
         Jp = J6[:3].copy()
-        if point is not None and np.any(point):
+        if point is not None and (point[0] or point[1] or point[2]):
             r = self.data.oMf[fid].rotation @ point  # offset in world axes
             Jp -= pin.skew(r) @ J6[3:]  # v_p = v_o + ω × r
         return Jp

@@ -9,6 +9,7 @@ impact laws need is therefore the factorisation of A once, ``A⁻¹ Jᵀ`` and `
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -108,7 +109,7 @@ class ContactMetric:
         """Fast path with A⁻¹ already known (``pin.computeMinverse``); falls back to the
         checked factorisation if A⁻¹ is not finite (a singular mass matrix)."""
         AinvJt = Ainv @ J.T
-        if not np.all(np.isfinite(AinvJt)):
+        if not math.isfinite(np.vdot(AinvJt, AinvJt)):  # a NaN or ∞ anywhere (or overflow) takes the checked route
             return cls.from_symmetric(A, J)
         return cls.from_factorised(A, J, AinvJt)
 
@@ -116,8 +117,14 @@ class ContactMetric:
     def range_projector(self) -> NDArray[np.float64] | None:
         """Orthogonal projector onto range(W), or None when W has full rank."""
         W = self.W
-        tr = float(np.trace(W))
-        if np.linalg.det(W) > 1e-12 * tr ** W.shape[0]:  # λ_min / λ_max ≥ det / tr^d: clearly full rank
+        w = W.tolist()  # d ≤ 3: the determinant in floats is far cheaper than LAPACK's
+        if len(w) == 2:
+            tr, det = w[0][0] + w[1][1], w[0][0] * w[1][1] - w[0][1] * w[1][0]
+        else:
+            tr = w[0][0] + w[1][1] + w[2][2]
+            det = (w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0])
+                   + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]))
+        if det > 1e-12 * tr ** len(w):  # λ_min / λ_max ≥ det / tr^d: clearly full rank
             return None
         lam, vec = np.linalg.eigh(W)
         keep = lam > 1e-12 * lam[-1]

@@ -146,13 +146,38 @@ class RoughLaw(ImpactLaw):
 
     def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], int]:
         """(2.8) with the rule of ``nodes`` nodes: contact impulses (B, d), local frame, and the facet count."""
-        m, p = self.roughness.rule_batch(U, nodes)
+        (P,), (facets,) = self._average_levels(W, U, (nodes,))
+        return P, facets
+
+    def _average_levels(
+        self, W: NDArray[np.float64], U: NDArray[np.float64], levels: tuple[int, ...]
+    ) -> tuple[list[NDArray[np.float64]], list[int]]:
+        """:meth:`_average` for several node counts in one pass over their concatenated nodes
+        (the per-call cost of a single impact is mostly the number of array operations)."""
+        rules = [self.roughness.rule_batch(U, n) for n in levels]
+        sizes = [p.shape[-1] for _, p in rules]
+        if len(rules) == 1:
+            m, p = rules[0]
+        elif all(m.ndim == 2 for m, _ in rules):
+            m, p = np.concatenate([r[0] for r in rules]), np.concatenate([r[1] for r in rules])
+        else:
+            B, d = U.shape
+            m = np.concatenate([r[0] if r[0].ndim == 3 else np.broadcast_to(r[0], (B, k, d))
+                                for r, k in zip(rules, sizes)], axis=1)
+            p = np.concatenate([r[1] if r[1].ndim == 2 else np.broadcast_to(r[1], (B, k))
+                                for r, k in zip(rules, sizes)], axis=1)
         w, c, m = self._terms(m, p, W, U)
-        total = w.sum(axis=1)
-        self._check_facing(total, U)
         wc = w * c
-        num = wc @ m if m.ndim == 2 else np.einsum("bk,bkd->bd", wc, m)
-        return (1.0 + self.e) * num / total[:, None], p.shape[-1]
+        out = []
+        start = 0
+        for k in sizes:
+            part = slice(start, start + k)
+            start += k
+            total = w[:, part].sum(axis=1)
+            self._check_facing(total, U)
+            num = wc[:, part] @ m[part] if m.ndim == 2 else np.einsum("bk,bkd->bd", wc[:, part], m[:, part])
+            out.append((1.0 + self.e) * num / total[:, None])
+        return out, sizes
 
     def _check_facing(self, total: NDArray[np.float64], U: NDArray[np.float64]) -> None:
         empty = np.flatnonzero(~(total > 0.0))
@@ -194,20 +219,22 @@ class RoughLaw(ImpactLaw):
                 err = np.full(len(U), (ring.tail + np.finfo(float).eps) * ring.degree)
                 return (1.0 + self.e) * N / D[:, None], err, 2 * ring.degree + 1
         if self.nodes is not None:
-            P, _ = self._average(W, U, self.nodes)
-            coarse, _ = self._average(W, U, max(1, self.nodes // 2))
+            (P, coarse), _ = self._average_levels(W, U, (self.nodes, max(1, self.nodes // 2)))
             return P, _relative_change(P, coarse, W), self.nodes
         return self._adaptive(W, U)
 
     def _adaptive(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
         """Double the node count on the rows that have not converged to ``rtol``."""
         nodes = self.roughness.initial_nodes
-        P, _ = self._average(W, U, nodes)
+        (P, fine), (_, facets) = self._average_levels(W, U, (nodes, 2 * nodes))
         err = np.full(len(U), np.inf)
         todo = np.arange(len(U))
+        first = True
         while True:
             nodes *= 2
-            fine, facets = self._average(W, U[todo], nodes)
+            if not first:
+                fine, facets = self._average(W, U[todo], nodes)
+            first = False
             err[todo] = _relative_change(fine, P[todo], W)
             P[todo] = fine
             # two results that differ only by rounding (≈ ε √K for K facets) have converged
