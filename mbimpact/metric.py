@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._validate import as_array
 from .errors import NotPositiveDefiniteError, ShapeError
 
-__all__ = ["ContactMetric", "local_basis"]
+__all__ = ["ContactMetric", "local_basis", "spread_bound"]
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9
@@ -117,14 +117,7 @@ class ContactMetric:
     def range_projector(self) -> NDArray[np.float64] | None:
         """Orthogonal projector onto range(W), or None when W has full rank."""
         W = self.W
-        w = W.tolist()  # d ≤ 3: the determinant in floats is far cheaper than LAPACK's
-        if len(w) == 2:
-            tr, det = w[0][0] + w[1][1], w[0][0] * w[1][1] - w[0][1] * w[1][0]
-        else:
-            tr = w[0][0] + w[1][1] + w[2][2]
-            det = (w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0])
-                   + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]))
-        if det > 1e-12 * tr ** len(w):  # λ_min / λ_max ≥ det / tr^d: clearly full rank
+        if spread_bound(W) > 1e-12:  # clearly full rank
             return None
         lam, vec = np.linalg.eigh(W)
         keep = lam > 1e-12 * lam[-1]
@@ -180,3 +173,18 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
         f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}), "
         f"to match J with {d} rows; got shape {f.shape}"
     )
+
+
+def spread_bound(W: NDArray[np.float64]) -> float:
+    """A lower bound det W / tr(W)^d of λ_min / λ_max for a positive semidefinite W (d ≤ 3).
+
+    Computed in floats: for 2 × 2 and 3 × 3 matrices this is far cheaper than LAPACK.
+    """
+    w = W.tolist()
+    if len(w) == 2:
+        tr, det = w[0][0] + w[1][1], w[0][0] * w[1][1] - w[0][1] * w[1][0]
+    else:
+        tr = w[0][0] + w[1][1] + w[2][2]
+        det = (w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0])
+               + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]))
+    return det / tr ** len(w) if tr > 0 else 0.0

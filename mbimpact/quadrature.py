@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["gauss_legendre", "azimuth_rule", "tilt_segments"]
+__all__ = ["gauss_legendre", "azimuth_rule", "tilt_segments", "ring_minima", "graded_azimuth_rule"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -126,3 +126,105 @@ def tilt_segments(
     t2 = a + t * t
     w2 = tmax / 2.0 * w * 2.0 * t
     return np.concatenate([t1, t2], axis=1), np.concatenate([w1, w2], axis=1)
+
+
+def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Azimuths where q(φ) = m(φ)ᵀ W m(φ) has a local minimum on the cone of tilt α, and
+    the width ε = sqrt(2 q / q'') of the peak that 1/q makes there.
+
+    A nearly singular Delassus matrix W (an arm near a singular posture) makes the
+    kernels of (2.8), (mᵀu)² m / q^{3/2} and 1/√q, peak at these azimuths with
+    width ε ≪ 1: a rule that ignores them converges only once its spacing is below ε.
+
+    Returns
+    -------
+    phi, eps : ndarray, shape (k,), k ≤ 2
+    """
+    s, c = math.sin(alpha), math.cos(alpha)
+    # q = q0 + a1 cos φ + b1 sin φ + a2 cos 2φ + b2 sin 2φ
+    q0 = 0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2]
+    a1, b1 = 2 * s * c * W[0, 2], 2 * s * c * W[1, 2]
+    a2, b2 = 0.5 * s * s * (W[0, 0] - W[1, 1]), s * s * W[0, 1]
+
+    def derivs(phi: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        c1, s1, c2, s2 = np.cos(phi), np.sin(phi), np.cos(2 * phi), np.sin(2 * phi)
+        q = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
+        dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
+        d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+        return q, dq, d2q
+
+    grid = 2 * math.pi * np.arange(256) / 256
+    q = derivs(grid)[0]
+    idx = np.flatnonzero((q <= np.roll(q, 1)) & (q < np.roll(q, -1)))
+    phi = grid[idx]
+    for _ in range(30):  # Newton on q' = 0 from the grid minima (q'' > 0 there)
+        _, dq, d2q = derivs(phi)
+        step = np.where(d2q > 0, dq / np.where(d2q > 0, d2q, 1.0), 0.0)
+        phi = phi - np.clip(step, -0.05, 0.05)
+        if np.all(np.abs(step) < 1e-15):
+            break
+    q, _, d2q = derivs(phi)
+    eps = np.sqrt(2.0 * np.maximum(q, 0.0) / np.maximum(d2q, 1e-300))
+    return np.mod(phi, 2 * math.pi), eps
+
+
+def graded_azimuth_rule(
+    alpha: float, minima: tuple[NDArray[np.float64], NDArray[np.float64]], U: NDArray[np.float64], nodes: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`azimuth_rule` for one tilt, graded towards the peaks of a nearly singular W.
+
+    The facing interval (arc or whole circle) is cut at the minima of q that lie in
+    it and every piece is halved; each half is mapped by φ = a ± ε sinh t onto the end
+    a it shares with a peak, ε being the distance from a to the nearest peak's
+    complex singularity (sqrt(ε_j² + |a − φ_j|²)), and integrated by Gauss–Legendre
+    in t. The sinh map turns 1/(x² + ε²)^k into a smooth function of t, so the rule
+    converges geometrically whatever ε (Johnston & Elliott's sinh transformation).
+
+    Parameters
+    ----------
+    minima : (phi, eps)
+        From :func:`ring_minima`.
+    U : ndarray, shape (B, 3)
+        Unit local-frame velocities, ``U[:, 2] < 0``.
+
+    Returns
+    -------
+    normals : ndarray, shape (B, (2k + 2) * nodes, 3)
+    weights : ndarray, shape (B, (2k + 2) * nodes)
+        k peaks: the interval is cut into at most k + 1 pieces, 2 halves each.
+    """
+    phi_star, eps_star = minima
+    s, c = math.sin(alpha), math.cos(alpha)
+    ut, un = np.hypot(U[:, 0], U[:, 1]), np.abs(U[:, 2])
+    psi = np.arctan2(U[:, 1], U[:, 0])
+    full = s * ut <= c * un
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(full, 1.0, c * un / np.where(full, 1.0, s * ut))
+    half = np.where(full, math.pi, math.pi - np.arccos(np.clip(ratio, -1.0, 1.0)))
+    centre = np.where(full, psi, psi + math.pi)
+    lo, hi = centre - half, centre + half  # (B,)
+    B, k = len(U), len(phi_star)
+    # minima inside (lo, hi), unwrapped; those outside are parked at hi (zero-length pieces)
+    inside = np.mod(phi_star[None, :] - lo[:, None], 2 * math.pi) + lo[:, None]  # (B, k) in [lo, lo + 2π)
+    inside = np.where(inside < hi[:, None], inside, hi[:, None])
+    breaks = np.sort(np.concatenate([lo[:, None], inside, hi[:, None]], axis=1), axis=1)  # (B, k + 2)
+    a, b = breaks[:, :-1], breaks[:, 1:]  # k + 1 pieces
+    mid = 0.5 * (a + b)
+    # each half-piece: graded end g, direction ±1, length ℓ
+    g = np.concatenate([a, b], axis=1)  # (B, 2k + 2)
+    sign = np.concatenate([np.ones_like(a), -np.ones_like(b)], axis=1)
+    ell = np.concatenate([mid - a, b - mid], axis=1)
+    # distance from each graded end to each peak's complex singularity φ_j ± iε_j (circular)
+    dist = np.abs(np.mod(g[:, :, None] - phi_star[None, None, :] + math.pi, 2 * math.pi) - math.pi)
+    eps = np.sqrt(eps_star**2 + dist**2).min(axis=2) if k else np.ones(g.shape)
+    eps = np.maximum(eps, 1e-300)
+    T = np.arcsinh(ell / eps)
+    x, gw = gauss_legendre(nodes)
+    t = T[..., None] * (x + 1.0) / 2.0  # (B, 2k + 2, n)
+    phi = g[..., None] + sign[..., None] * eps[..., None] * np.sinh(t)
+    w = eps[..., None] * np.cosh(t) * (T[..., None] / 2.0) * gw / (2.0 * math.pi)
+    normals = np.empty((B, 2 * k + 2, nodes, 3))
+    normals[..., 0] = s * np.cos(phi)
+    normals[..., 1] = s * np.sin(phi)
+    normals[..., 2] = c
+    return normals.reshape(B, -1, 3), w.reshape(B, -1)
