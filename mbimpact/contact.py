@@ -121,8 +121,7 @@ def impact(
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
-    metric = ContactMetric.from_inverse(mech.mass_matrix(q), mech.inverse_mass_matrix(q), J)
-    return law.apply_metric(metric, v, R)
+    return law.apply_mechanism(mech, q, v, J, R)
 
 
 def impact_batch(

@@ -14,15 +14,19 @@ it is written once for a batch of velocities (rows); a single impact is a batch 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
 from .errors import NoImpactError, ParameterError, RoughnessError
-from .metric import ContactMetric, local_basis
+from .metric import ContactMetric, local_basis, spread_bound
 from .restitution import e_from_k
 from .result import BatchResult, ImpactResult
+
+if TYPE_CHECKING:
+    from .mechanism import Mechanism
 
 __all__ = ["ImpactLaw", "NewtonLaw", "AccuracyWarning"]
 
@@ -50,7 +54,8 @@ def _relative_change(fine: NDArray[np.float64], coarse: NDArray[np.float64], W: 
     """Relative difference of two impulse estimates, measured by the contact-velocity
     change Δu = W P they produce: with a rank-deficient J, P is only defined up to
     the null space of Jᵀ (= that of W), while Δu is always well defined."""
-    return np.linalg.norm((fine - coarse) @ W, axis=1) / np.linalg.norm(fine @ W, axis=1)
+    diff, ref = (fine - coarse) @ W, fine @ W
+    return np.sqrt(np.einsum("bd,bd->b", diff, diff) / np.einsum("bd,bd->b", ref, ref))
 
 
 class ImpactLaw(ABC):
@@ -121,6 +126,15 @@ class ImpactLaw(ABC):
         metric = ContactMetric.from_arrays(A, J)
         v = as_array("v", v, 1, (metric.n,))
         return self.apply_metric(metric, v, local_basis(frame, metric.d))
+
+    def apply_mechanism(
+        self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64], J: NDArray[np.float64],
+        R: NDArray[np.float64],
+    ) -> ImpactResult:
+        """:meth:`apply` for a mechanism at a validated state, with the contact Jacobian
+        ``J`` (d, nv) and contact basis ``R`` (d, d) at q (:func:`mbimpact.impact`)."""
+        metric = ContactMetric.from_inverse(mech.mass_matrix(q), mech.inverse_mass_matrix(q), J)
+        return self.apply_metric(metric, v, R)
 
     def apply_metric(
         self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]
@@ -256,6 +270,29 @@ class NewtonLaw(ImpactLaw):
         P = np.zeros_like(U)
         P[:, -1] = -(1.0 + self.e) * U[:, -1] / W[-1, -1]
         return P, np.zeros(len(U)), 1
+
+    def apply_mechanism(
+        self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64], J: NDArray[np.float64],
+        R: NDArray[np.float64],
+    ) -> ImpactResult:
+        # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve
+        # with the sparse Cholesky factor of A (what pin.impulseDynamics does), not W.
+        n0 = R[:, -1]
+        jn = n0 @ J
+        un = float(jn @ v)
+        # degenerate cases (no approach, n⁰ out of reach, rank-deficient J) take the
+        # general route, which names the error or reports the minimum-norm impulse
+        if not un < 0.0 or not float(jn @ jn) > 1e-8 * float(np.vdot(J, J)) or spread_bound(J @ J.T) <= 1e-12:
+            return super().apply_mechanism(mech, q, v, J, R)
+        A = mech.factorise(q)
+        y = mech.solve(jn)
+        Pn = -(1.0 + self.e) * un / float(jn @ y)
+        dv = Pn * y
+        u = J @ v
+        return ImpactResult(
+            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=Pn * n0, u_minus=u, u_plus=u + J @ dv,
+            n0=n0.copy(), A=A, J=J, law=self,
+        )
 
     def impulse_for(
         self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]

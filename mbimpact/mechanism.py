@@ -152,6 +152,17 @@ class Mechanism:
         """A(q) from ``pin.crba`` (armature included), full symmetric, shape (nv, nv)."""
         return pin.crba(self.model, self.data, q).copy()
 
+    def factorise(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A(q) as :meth:`mass_matrix`, keeping its sparse Cholesky factor (``pin.cholesky``)
+        in the workspace for :meth:`solve` — the factorisation ``pin.impulseDynamics`` uses."""
+        A = self.mass_matrix(q)
+        pin.cholesky.decompose(self.model, self.data)
+        return A
+
+    def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A⁻¹ b, shape (nv,), with the factor of the last :meth:`factorise` call."""
+        return pin.cholesky.solve(self.model, self.data, b)
+
     def inverse_mass_matrix(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
         return pin.computeMinverse(self.model, self.data, q).copy()

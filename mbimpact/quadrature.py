@@ -141,31 +141,35 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
     phi, eps : ndarray, shape (k,), k ≤ 2
     """
     s, c = math.sin(alpha), math.cos(alpha)
+    w = W.tolist()
     # q = q0 + a1 cos φ + b1 sin φ + a2 cos 2φ + b2 sin 2φ
-    q0 = 0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2]
-    a1, b1 = 2 * s * c * W[0, 2], 2 * s * c * W[1, 2]
-    a2, b2 = 0.5 * s * s * (W[0, 0] - W[1, 1]), s * s * W[0, 1]
+    q0 = 0.5 * s * s * (w[0][0] + w[1][1]) + c * c * w[2][2]
+    a1, b1 = 2 * s * c * w[0][2], 2 * s * c * w[1][2]
+    a2, b2 = 0.5 * s * s * (w[0][0] - w[1][1]), s * s * w[0][1]
 
-    def derivs(phi: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        c1, s1, c2, s2 = np.cos(phi), np.sin(phi), np.cos(2 * phi), np.sin(2 * phi)
-        q = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
-        dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
+    grid = 2 * math.pi * np.arange(64) / 64
+    q = q0 + a1 * np.cos(grid) + b1 * np.sin(grid) + a2 * np.cos(2 * grid) + b2 * np.sin(2 * grid)
+    found: list[float] = []
+    widths: list[float] = []
+    # a trigonometric polynomial of degree 2 has at most two local minima: Newton on q' = 0
+    # from each grid minimum, in floats (this runs once per impact when W is ill-conditioned)
+    for i in np.flatnonzero((q <= np.roll(q, 1)) & (q < np.roll(q, -1))).tolist():
+        phi = float(grid[i])
+        for _ in range(50):
+            c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+            dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
+            d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+            step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
+            phi -= step
+            if abs(step) < 1e-15:
+                break
+        c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+        qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
         d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
-        return q, dq, d2q
-
-    grid = 2 * math.pi * np.arange(256) / 256
-    q = derivs(grid)[0]
-    idx = np.flatnonzero((q <= np.roll(q, 1)) & (q < np.roll(q, -1)))
-    phi = grid[idx]
-    for _ in range(30):  # Newton on q' = 0 from the grid minima (q'' > 0 there)
-        _, dq, d2q = derivs(phi)
-        step = np.where(d2q > 0, dq / np.where(d2q > 0, d2q, 1.0), 0.0)
-        phi = phi - np.clip(step, -0.05, 0.05)
-        if np.all(np.abs(step) < 1e-15):
-            break
-    q, _, d2q = derivs(phi)
-    eps = np.sqrt(2.0 * np.maximum(q, 0.0) / np.maximum(d2q, 1e-300))
-    return np.mod(phi, 2 * math.pi), eps
+        found.append(phi % (2 * math.pi))
+        widths.append(math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300)))
+    phi_arr, eps = np.array(found), np.array(widths)
+    return phi_arr, eps
 
 
 def graded_azimuth_rule(

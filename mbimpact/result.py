@@ -57,8 +57,8 @@ class ImpactResult:
     nodes: int = 1
 
     def __post_init__(self) -> None:
-        for name in ("v_minus", "v_plus", "dv", "P", "u_minus", "u_plus", "n0"):
-            getattr(self, name).flags.writeable = False
+        for a in (self.v_minus, self.v_plus, self.dv, self.P, self.u_minus, self.u_plus, self.n0):
+            a.setflags(write=False)
 
     @property
     def I(self) -> NDArray[np.float64]:  # noqa: E743 — the paper's name

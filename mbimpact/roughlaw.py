@@ -66,7 +66,7 @@ class RoughLaw(ImpactLaw):
         an :class:`AccuracyWarning` reports the error reached.
     nodes : int, optional
         Fixed node count instead of adaptive refinement (the error estimate then
-        compares with ``nodes // 2``).
+        compares with ``nodes // 2``); per piece of the graded rule (Notes).
     max_nodes : int, optional
         Node count at which refinement stops (an :class:`AccuracyWarning` is
         issued if ``rtol`` was not reached); default: the measure's ``node_limit``.
@@ -238,10 +238,11 @@ class RoughLaw(ImpactLaw):
                 # truncation plus the rounding of a sum of `degree` terms
                 err = np.full(len(U), (ring.tail + np.finfo(float).eps) * ring.degree)
                 return (1.0 + self.e) * N / D[:, None], err, 2 * ring.degree + 1
+        rule = self._graded_rule(W)
         if self.nodes is not None:
-            (P, coarse), _ = self._average_levels(W, U, (self.nodes, max(1, self.nodes // 2)))
+            (P, coarse), _ = self._average_levels(W, U, (self.nodes, max(1, self.nodes // 2)), rule)
             return P, _relative_change(P, coarse, W), self.nodes
-        return self._adaptive(W, U, self._graded_rule(W))
+        return self._adaptive(W, U, rule)
 
     def _graded_rule(self, W: NDArray[np.float64]) -> _Rule | None:
         """For a :class:`Cone` and a nearly singular W: the rule graded towards the peaks
@@ -265,7 +266,7 @@ class RoughLaw(ImpactLaw):
         err = np.full(len(U), np.inf)
         todo = np.arange(len(U))
         first, limited = True, False
-        scale_W = float(np.linalg.norm(W, 2))
+        scale_W = float(np.trace(W))  # ≥ |W|₂ for W ⪰ 0
         while True:
             nodes *= 2
             if not first:
@@ -278,11 +279,14 @@ class RoughLaw(ImpactLaw):
             # so have results that stopped improving at that level amplified by |W| |P| / |W P|
             # (W nearly annihilates P: an ill-conditioned contact)
             floor = 100 * np.finfo(float).eps * np.sqrt(facets)
-            amplification = scale_W * np.linalg.norm(fine, axis=1) / np.linalg.norm(fine @ W, axis=1)
             unconverged = err[todo] > max(self.rtol, floor)
-            stalled = unconverged & (err[todo] <= floor * amplification) & (err[todo] > 0.1 * previous)
-            limited = limited or bool(stalled.any())
-            todo = todo[unconverged & ~stalled]
+            if not unconverged.any():
+                todo = todo[:0]
+            else:
+                amplification = scale_W * np.sqrt(np.einsum("bd,bd->b", fine, fine) / np.einsum("bd,bd->b", fine @ W, fine @ W))
+                stalled = unconverged & (err[todo] <= floor * amplification) & (err[todo] > 0.1 * previous)
+                limited = limited or bool(stalled.any())
+                todo = todo[unconverged & ~stalled]
             if todo.size == 0:
                 if limited:
                     warnings.warn(

@@ -15,11 +15,18 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
         rows = list(csv.DictReader(fh))
     acc = [r for r in rows if r["part"] == "accuracy"]
     # the exact-arc rule reaches 1e-12 with 64 nodes in every regime, uniform sampling does not
-    assert all(float(r["error"]) <= 1e-12 for r in acc if r["method"] == "exact-arc quadrature" and r["param"] == "64.0")
-    truncated = [r for r in acc if "beta=75" in r["case"] and r["method"] == "uniform sampling"]
+    regular = [r for r in acc if "singular" not in r["case"]]
+    assert all(float(r["error"]) <= 1e-12 for r in regular
+               if r["method"] == "exact-arc quadrature" and r["param"] == "64.0")
+    truncated = [r for r in regular if "beta=75" in r["case"] and r["method"] == "uniform sampling"]
     assert truncated and all(float(r["error"]) > 1e-9 for r in truncated)
-    mc = [r for r in acc if r["method"] == "Monte Carlo"]
+    mc = [r for r in regular if r["method"] == "Monte Carlo"]
     assert all(1e-5 < float(r["error"]) < 0.2 for r in mc)
+    # near-singular posture: the graded rule converges (to rounding amplified by cond W), sampling does not
+    singular = [r for r in acc if "singular" in r["case"]]
+    assert all(float(r["error"]) <= 1e-10 for r in singular
+               if r["method"] == "exact-arc quadrature" and r["param"] == "64.0")
+    assert all(float(r["error"]) > 1e-3 for r in singular if r["method"] in ("uniform sampling", "Monte Carlo"))
     over = [r for r in rows if r["part"] == "overhead"]
     assert {r["case"] for r in over} >= {"ur5", "solo12"}
     assert all(float(r["ratio"]) > 0 for r in over)

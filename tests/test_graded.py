@@ -74,8 +74,13 @@ def test_uniform_rule_needs_far_more_nodes_there():
     W = metric.W
     u = np.array([0.2, 0.1, -1.0]) / np.linalg.norm([0.2, 0.1, -1.0])
     ref = reference(0.3, 0.5, W, u)
-    plain, _, _ = mbi.RoughLaw(mbi.Cone(0.3), 0.5, nodes=20_000).contact_impulses(W, u[None])
+    phi = 2 * math.pi * np.arange(20_000) / 20_000  # the whole cone faces u: the periodic trapezoid rule
+    ring = mbi.Facets(np.column_stack([math.sin(0.3) * np.cos(phi), math.sin(0.3) * np.sin(phi),
+                                       np.full(phi.size, math.cos(0.3))]))
+    plain, _, _ = mbi.RoughLaw(ring, 0.5).contact_impulses(W, u[None])
     assert np.linalg.norm((plain[0] - ref) @ W) > 1e-7 * np.linalg.norm(ref @ W)
+    graded, _, _ = mbi.RoughLaw(mbi.Cone(0.3), 0.5, nodes=64).contact_impulses(W, u[None])
+    assert np.linalg.norm((graded[0] - ref) @ W) < 1e-9 * np.linalg.norm(ref @ W)
 
 
 def test_ring_minima_of_a_rank_one_delassus_matrix():
