@@ -5,8 +5,8 @@ and their measure) → law (the flux-weighted average (2.8)) → result (I by (1
 """
 
 from . import compare, figures, sweep, vibro
-from .coulomb import CoulombLaw
 from .contact import PointContact, impact, impact_batch
+from .coulomb import CoulombLaw
 from .errors import (
     FrameNotFoundError,
     ImpactError,
@@ -24,17 +24,17 @@ from .errors import (
 from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
 from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
-from .roughlaw import RoughLaw
-from .restitution import e_from_k, impact_duration, k_from_e
 from .relief import HeightMap, Profile
 from .resolve import Resolved, resolve
 from .resolve_rough import RoughResolved, resolve_rough
-from .simultaneous import SimultaneousReport, compare_simultaneous
+from .restitution import e_from_k, impact_duration, k_from_e
 from .result import BatchResult, ImpactResult
+from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
+from .roughlaw import RoughLaw
+from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
 from .scene import Scene, SceneContact, SceneError, Surface, load_scene, scene_names
 from .simulate import ImpactRecord, Trajectory, simulate
-from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
-from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
+from .simultaneous import SimultaneousReport, compare_simultaneous
 from .slopes import GaussianSlopes, IsotropicSlopes
 
 __version__ = "0.1.0"

@@ -31,9 +31,9 @@ import pinocchio as pin
 
 from .contact import PointContact, impact
 from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
-from .roughlaw import RoughLaw
 from .mechanism import Mechanism
 from .progress import Progress
+from .roughlaw import RoughLaw
 from .roughness import Cone, Facets
 
 __all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "plot", "machine_summary", "moving_frame"]

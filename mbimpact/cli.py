@@ -43,8 +43,8 @@ def _compare(args: argparse.Namespace) -> int:
     from .coulomb import CoulombLaw
     from .demo import UR5_POSTURE
     from .laws import NewtonLaw
-    from .roughlaw import RoughLaw
     from .mechanism import Mechanism
+    from .roughlaw import RoughLaw
     from .roughness import Cone, Sawtooth
 
     mech = Mechanism.from_urdf(args.urdf, args.floating) if args.urdf else Mechanism.from_robot(args.robot)

@@ -16,7 +16,7 @@ from ._validate import as_array
 from .errors import ShapeError
 from .laws import ImpactLaw
 from .mechanism import Mechanism
-from .metric import ContactMetric, local_basis
+from .metric import local_basis
 from .result import BatchResult, ImpactResult
 
 __all__ = ["PointContact", "impact", "impact_batch"]

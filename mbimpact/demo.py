@@ -12,8 +12,8 @@ import numpy as np
 from .compare import CompareRow, compare_laws
 from .contact import PointContact
 from .laws import ImpactLaw, NewtonLaw
-from .roughlaw import RoughLaw
 from .mechanism import Mechanism
+from .roughlaw import RoughLaw
 from .roughness import Cone
 
 __all__ = ["UR5_POSTURE", "demo_rows"]

@@ -14,8 +14,8 @@ import numpy as np
 
 from .coulomb import CoulombLaw
 from .laws import NewtonLaw
-from .roughlaw import RoughLaw
 from .relief import Profile
+from .roughlaw import RoughLaw
 from .roughness import Cone, Sawtooth
 
 __all__ = ["fig1_data", "sawtooth_mu", "claims_data", "rough_vs_coulomb_data", "write_all"]

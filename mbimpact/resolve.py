@@ -27,7 +27,13 @@ from scipy.integrate import solve_ivp
 
 from ._validate import as_array, as_scalar
 from .contact import PointContact
-from .errors import IntegrationError, NoFacingFacetError, NoImpactError, ParameterError, ShapeError
+from .errors import (
+    IntegrationError,
+    NoFacingFacetError,
+    NoImpactError,
+    ParameterError,
+    ShapeError,
+)
 from .mechanism import Mechanism
 from .restitution import impact_duration, k_from_e
 from .roughness import check_normals

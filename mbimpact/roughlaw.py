@@ -12,8 +12,14 @@ from numpy.typing import NDArray
 
 from ._validate import as_scalar
 from .errors import NoFacingFacetError, ParameterError, RoughnessError
+from .laws import (
+    _DEGENERATE,
+    AccuracyWarning,
+    ImpactLaw,
+    _relative_change,
+    _restitution,
+)
 from .metric import spread_bound
-from .laws import _DEGENERATE, AccuracyWarning, ImpactLaw, _relative_change, _restitution
 from .quadrature import graded_azimuth_rule, ring_minima
 from .ring import ring_expansion
 from .roughness import Cone, Roughness

@@ -34,8 +34,8 @@ from numpy.typing import NDArray
 from .coulomb import CoulombLaw
 from .errors import ImpactError
 from .laws import ImpactLaw, NewtonLaw
-from .roughlaw import RoughLaw
 from .mechanism import Mechanism
+from .roughlaw import RoughLaw
 from .roughness import Cone, Roughness, Sawtooth, Smooth
 from .slopes import GaussianSlopes
 

@@ -26,10 +26,10 @@ from scipy.integrate import solve_ivp
 
 from .errors import IntegrationError
 from .laws import ImpactLaw, NewtonLaw
-from .roughlaw import RoughLaw
 from .metric import ContactMetric, local_basis
 from .progress import Progress
 from .resolve import resolve
+from .roughlaw import RoughLaw
 from .roughness import Smooth
 from .scene import Scene, SceneContact
 

@@ -109,8 +109,8 @@ def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, period
 
     ``inv_rho`` is ρ⁻¹ in units of ω²/g. Returns x at the successive impacts (m).
     """
-    from .roughlaw import RoughLaw
     from .mechanism import Mechanism
+    from .roughlaw import RoughLaw
     from .scene import Scene, SceneContact, Surface
     from .simulate import simulate
 
