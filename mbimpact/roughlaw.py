@@ -260,7 +260,9 @@ class RoughLaw(ImpactLaw):
         if spread_bound(W) > _PEAKED**2:
             return None
         minima = ring_minima(rough.alpha, W)
-        if not minima[1].size or minima[1].min() >= _PEAKED:
+        # ε ≲ 1e-7 means q_min / q_max ≲ 1e-14: facets the mechanism cannot push (skipped as
+        # degenerate), around which the flux weight is not integrable; grading cannot help
+        if not minima[1].size or not 1e-7 < minima[1].min() < _PEAKED:
             return None
         return functools.partial(graded_azimuth_rule, rough.alpha, minima)
 
