@@ -102,11 +102,12 @@ def _powers(z: NDArray[np.complex128], L: int) -> NDArray[np.complex128]:
     hi_count = -(-L // _BLOCK)
     lo = np.cumprod(np.repeat(z[:, None], _BLOCK, axis=1), axis=1)  # z^1..z^BLOCK
     step = lo[:, -1]
-    hi = np.empty((len(z), hi_count), dtype=complex)
+    hi = np.empty((len(z), hi_count), dtype=np.complex128)
     hi[:, 0] = 1.0
     if hi_count > 1:
         hi[:, 1:] = np.cumprod(np.repeat(step[:, None], hi_count - 1, axis=1), axis=1)
-    return (hi[:, :, None] * lo[:, None, :]).reshape(len(z), -1)[:, :L]
+    out: NDArray[np.complex128] = (hi[:, :, None] * lo[:, None, :]).reshape(len(z), -1)[:, :L]
+    return out
 
 
 def _kernels(alpha: float, W: NDArray[np.float64], metric_flux: bool, M: int) -> NDArray[np.float64] | None:
