@@ -21,6 +21,9 @@ from .roughness import Roughness
 
 __all__ = ["Profile", "HeightMap"]
 
+# Elements per work array of the exact height-map shadowing (intervals × crossings²).
+_CHUNK = 1 << 21
+
 
 def _spacing(name: str, x: float) -> float:
     val = as_scalar(name, x, 0.0, math.inf)
@@ -123,18 +126,14 @@ class HeightMap(Roughness):
         Grid spacings, > 0.
     shadowing : bool
         Weight each triangle by the part of it hit first by an approach along
-        the velocity, estimated on ``shadow_samples``² points per triangle by
-        marching upstream over the map (resolution-limited, unlike
-        :class:`Profile`'s exact rule).
-    shadow_samples : int
-        Sub-triangle subdivision level for the shadowing estimate.
+        the velocity (exact to rounding, :meth:`lit_fraction`; about 0.2 s per
+        velocity for a 32 × 32 map and 1 s for 64 × 64, growing like N^2.6).
     """
 
     z: NDArray[np.float64]
     dx: float
     dy: float
     shadowing: bool = False
-    shadow_samples: int = 3
     normals: NDArray[np.float64] = field(init=False, repr=False)
     areas: NDArray[np.float64] = field(init=False, repr=False)
     dim = 3  # type: ignore[assignment]
@@ -161,8 +160,6 @@ class HeightMap(Roughness):
         object.__setattr__(self, "dy", dy)
         object.__setattr__(self, "normals", normals)
         object.__setattr__(self, "areas", areas)
-        if int(self.shadow_samples) < 1:
-            raise RoughnessError(f"shadow_samples must be ≥ 1, got {self.shadow_samples}")
 
     def __repr__(self) -> str:
         return f"HeightMap({self.z.shape[0]}×{self.z.shape[1]}, dx={self.dx:g}, dy={self.dy:g}, shadowing={self.shadowing})"
@@ -179,48 +176,109 @@ class HeightMap(Roughness):
         z00, z10, z11, z01 = z[i, j], z[i + 1, j], z[i + 1, j + 1], z[i, j + 1]
         return np.where(lower, z00 + a * (z10 - z00) + b * (z11 - z10), z00 + b * (z01 - z00) + a * (z11 - z01))
 
-    def _sample_points(self) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-        """Centroids of the k² sub-triangles of every triangle: x, y (T, k²)."""
-        k = int(self.shadow_samples)
-        bary = []
-        for r in range(k):
-            for s in range(k - r):
-                bary.append(((r + 1 / 3) / k, (s + 1 / 3) / k))
-                if r + s < k - 1:
-                    bary.append(((r + 2 / 3) / k, (s + 2 / 3) / k))
-        bary_arr = np.array(bary)  # (k², 2): coordinates along the two edges from the right-angle-free corner
-        nx, ny = self.z.shape
-        I, Jg = np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij")
-        x0, y0 = (I * self.dx).ravel(), (Jg * self.dy).ravel()
-        # triangle 1: 00 + p (10 - 00) + q (11 - 10); triangle 2: 00 + p (01 - 00) + q (11 - 01)
-        p, q = bary_arr[:, 0][None, :], bary_arr[:, 1][None, :]
-        x1, y1 = x0[:, None] + (p * self.dx), y0[:, None] + (q * self.dy)
-        x2, y2 = x0[:, None] + (q * self.dx), y0[:, None] + (p * self.dy)
-        return np.concatenate([x1, x2]), np.concatenate([y1, y2]), bary_arr.shape[0]
-
     def lit_fraction(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Estimated part of each triangle hit first by an approach along ``u``, shape (T,)."""
+        """Part of each triangle reached first by an approach along ``u`` (d = 3), shape (T,).
+
+        Along a vertical plane parallel to the horizontal part of ``u`` the map is a
+        piecewise-linear profile on which visibility is exact (:class:`Profile`'s
+        running maximum of g = h + (|u_n| / |u_t|) t). Between the offsets s of two
+        grid vertices the plane crosses the same edges in the same order, so the
+        value g_k(s) at every crossing is linear in s, and the lit length of every
+        triangle is linear in s except where two of these lines meet (the shadow
+        changes its casting peak or reaches a segment's end). Splitting at all such
+        meeting points leaves pieces on which the midpoint rule is exact: the lit
+        areas are exact to rounding.
+        """
         ut = float(np.hypot(u[0], u[1]))
+        T = len(self.areas)
         if ut == 0.0:
-            return np.ones(len(self.areas))
-        x, y, _ = self._sample_points()
-        h0 = self.height(x, y)
-        dirx, diry = -u[0] / ut, -u[1] / ut  # upstream, horizontally
-        c = abs(u[2]) / ut  # the ray rises by c per unit of horizontal distance upstream
-        step = 0.5 * min(self.dx, self.dy)
+            return np.ones(T)
+        d = np.array([u[0], u[1]]) / ut  # rays travel downstream along d
+        e = np.array([-d[1], d[0]])  # offset of the plane
+        c = abs(float(u[2])) / ut
         nx, ny = self.z.shape
-        reach = math.hypot((nx - 1) * self.dx, (ny - 1) * self.dy)
-        zmax = float(self.z.max())
-        lit = np.ones(x.shape, dtype=bool)
-        for k in range(1, int(reach / step) + 2):
-            lam = k * step
-            px, py = x + lam * dirx, y + lam * diry
-            inside = (px >= 0) & (px <= (nx - 1) * self.dx) & (py >= 0) & (py <= (ny - 1) * self.dy)
-            active = lit & inside & (h0 + c * lam < zmax)
-            if not active.any():
-                break
-            lit[active] = self.height(px[active], py[active]) <= h0[active] + c * lam
-        return lit.mean(axis=1)
+        gx, gy = np.meshgrid(np.arange(nx) * self.dx, np.arange(ny) * self.dy, indexing="ij")
+        proj = np.unique(gx.ravel() * e[0] + gy.ravel() * e[1])
+        proj = proj[np.concatenate([[True], np.diff(proj) > 1e-12 * (proj[-1] - proj[0])])]
+        lit = np.zeros(T)
+        width = 2 * nx + 2 * ny  # crossings per plane, at most
+        chunk = max(1, _CHUNK // (width * width))
+        for start in range(0, proj.size - 1, chunk):
+            stop = min(start + chunk, proj.size - 1)
+            lo, hi = proj[start:stop], proj[start + 1 : stop + 1]
+            # g_k(s) on each interval from two planes inside it (same crossings, same order)
+            sa, sb = lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo)
+            _, ga, _ = self._profiles(sa, d, e, c)
+            _, gb, _ = self._profiles(sb, d, e, c)
+            with np.errstate(invalid="ignore", divide="ignore"):  # padding: −inf − (−inf)
+                slope = (gb - ga) / (sb - sa)[:, None]
+                s_meet = sa[:, None, None] - (ga[:, :, None] - ga[:, None, :]) / (slope[:, :, None] - slope[:, None, :])
+            inside = np.isfinite(s_meet) & (s_meet > lo[:, None, None]) & (s_meet < hi[:, None, None])
+            piece = np.concatenate([np.arange(lo.size), np.arange(lo.size), np.nonzero(inside)[0]])
+            cut = np.concatenate([lo, hi, s_meet[inside]])
+            order = np.lexsort((cut, piece))
+            piece, cut = piece[order], cut[order]
+            same = piece[1:] == piece[:-1]
+            a, b = cut[:-1][same], cut[1:][same]
+            keep = b - a > 0.0
+            a, b = a[keep], b[keep]
+            for s0 in range(0, a.size, chunk * width):
+                aa, bb = a[s0 : s0 + chunk * width], b[s0 : s0 + chunk * width]
+                tri, length = self._lit_lengths(0.5 * (aa + bb), d, e, c)
+                ok = tri >= 0
+                lit += np.bincount(tri[ok], weights=((bb - aa)[:, None] * length)[ok], minlength=T)
+        return np.clip(lit / (0.5 * self.dx * self.dy), 0.0, 1.0)
+
+    def _profiles(
+        self, S: NDArray[np.float64], d: NDArray[np.float64], e: NDArray[np.float64], c: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+        """Sorted crossings t of the planes at offsets S with the grid lines and diagonals, and
+        g = h + c t there, shape (len(S), C); missing crossings have t = +inf, g = −inf."""
+        nx, ny = self.z.shape
+        X, Y = (nx - 1) * self.dx, (ny - 1) * self.dy
+        ox, oy = S * e[0], S * e[1]  # the plane passes through (ox, oy) at t = 0
+        cuts = []
+        if abs(d[0]) > 1e-15:
+            cuts.append((np.arange(nx)[None, :] * self.dx - ox[:, None]) / d[0])
+        if abs(d[1]) > 1e-15:
+            cuts.append((np.arange(ny)[None, :] * self.dy - oy[:, None]) / d[1])
+        den = d[0] / self.dx - d[1] / self.dy
+        if abs(den) > 1e-15:  # diagonals x/dx − y/dy = k of the triangulation
+            k = np.arange(-(ny - 1), nx)[None, :]
+            cuts.append((k - (ox / self.dx - oy / self.dy)[:, None]) / den)
+        t = np.concatenate(cuts, axis=1)
+        px, py = ox[:, None] + t * d[0], oy[:, None] + t * d[1]
+        eps = 1e-12 * (X + Y)
+        inside = (px >= -eps) & (px <= X + eps) & (py >= -eps) & (py <= Y + eps)
+        t = np.sort(np.where(inside, t, np.inf), axis=1)
+        valid = np.isfinite(t)
+        tf = np.where(valid, t, 0.0)
+        h = self.height(ox[:, None] + tf * d[0], oy[:, None] + tf * d[1])
+        return t, np.where(valid, h + c * tf, -np.inf), valid
+
+    def _lit_lengths(
+        self, S: NDArray[np.float64], d: NDArray[np.float64], e: NDArray[np.float64], c: float
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Triangle index and lit horizontal length of every segment of the planes at offsets S,
+        shape (len(S), C − 1); padding segments have triangle −1."""
+        nx, ny = self.z.shape
+        t, g, valid = self._profiles(S, d, e, c)
+        tf = np.where(valid, t, 0.0)
+        run = np.maximum.accumulate(g, axis=1)  # a point is lit iff g ≥ max of g upstream
+        t0, t1, g0, g1, P = tf[:, :-1], tf[:, 1:], g[:, :-1], g[:, 1:], run[:, :-1]
+        seg = valid[:, 1:] & (t1 - t0 > 1e-12 * ((nx - 1) * self.dx + (ny - 1) * self.dy))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(seg & (g1 > g0), np.clip((g1 - P) / (g1 - g0), 0.0, 1.0), 0.0)
+        length = np.where(seg, frac * (t1 - t0), 0.0)
+        # the triangle of each segment, from its midpoint
+        ox, oy = S * e[0], S * e[1]
+        mx, my = ox[:, None] + 0.5 * (t0 + t1) * d[0], oy[:, None] + 0.5 * (t0 + t1) * d[1]
+        fx = np.clip(mx / self.dx, 0.0, nx - 1 - 1e-12)
+        fy = np.clip(my / self.dy, 0.0, ny - 1 - 1e-12)
+        i, j = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+        upper = (fy - j) > (fx - i)
+        tri = i * (ny - 1) + j + upper * (nx - 1) * (ny - 1)
+        return np.where(seg, tri, -1), length
 
     def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         total = self.areas.sum()

@@ -164,14 +164,106 @@ def test_height_map_of_a_ridge_profile_matches_the_profile():
     x = np.linspace(0.0, 2.0, 121)
     h = 0.1 * np.sin(2 * np.pi * x)
     z = np.tile(h[:, None], (1, 4))
-    for shadowing, tol in ((False, 1e-12), (True, 2e-2)):
-        hm = mbi.HeightMap(z, x[1], 0.1, shadowing=shadowing, shadow_samples=4)
+    for shadowing in (False, True):
+        hm = mbi.HeightMap(z, x[1], 0.1, shadowing=shadowing)
         pr = mbi.Profile(h, x[1], shadowing=shadowing)
         for tb in (0.5, 4.0, 15.0):
             a = mbi.RoughLaw(hm, 0.5).apply(I3, I3, [tb, 0.0, -1.0], [0, 0, 1]).dv
             b = mbi.RoughLaw(pr, 0.5).apply(I2, I2, [tb, -1.0], [0, 1]).dv
-            np.testing.assert_allclose(a[[0, 2]], b, rtol=tol, atol=1e-12)
+            np.testing.assert_allclose(a[[0, 2]], b, rtol=1e-12, atol=1e-12)
             assert abs(a[1]) < 1e-12
+
+
+def first_hits(hm, u, n_rays, rng):
+    """Ray casting: parallel rays along u from a horizontal plane above the map; the
+    triangle each ray meets first from above (−1: none) and the beam area per ray."""
+    z, (nx, ny) = hm.z, hm.z.shape
+    X, Y = (nx - 1) * hm.dx, (ny - 1) * hm.dy
+    top = z.max() + 0.1
+    drift = (top - z.min()) / abs(u[2])
+    xs, ys = [0, X, -drift * u[0], X - drift * u[0]], [0, Y, -drift * u[1], Y - drift * u[1]]
+    box = (max(xs) - min(xs)) * (max(ys) - min(ys))
+    O = np.column_stack([rng.uniform(min(xs), max(xs), n_rays), rng.uniform(min(ys), max(ys), n_rays),
+                         np.full(n_rays, top)])
+    I, J = (a.ravel() for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), indexing="ij"))
+    vertex = lambda i, j: np.column_stack([i * hm.dx, j * hm.dy, z[i, j]])  # noqa: E731
+    corners = [np.concatenate(c) for c in zip((vertex(I, J), vertex(I + 1, J), vertex(I + 1, J + 1)),
+                                              (vertex(I, J), vertex(I + 1, J + 1), vertex(I, J + 1)))]
+    best, who = np.full(n_rays, np.inf), np.full(n_rays, -1)
+    for k, (p0, p1, p2) in enumerate(zip(*corners)):  # Möller–Trumbore
+        e1, e2 = p1 - p0, p2 - p0
+        pv = np.cross(u, e2)
+        det = e1 @ pv
+        tv = O - p0
+        a = tv @ pv / det
+        qv = np.cross(tv, e1)
+        b, t = qv @ u / det, qv @ e2 / det
+        hit = (a >= 0) & (b >= 0) & (a + b <= 1) & (t > 0) & (t < best)
+        best[hit], who[hit] = t[hit], k
+    from_above = hm.normals[np.maximum(who, 0)] @ u < 0
+    return np.where((who >= 0) & from_above, who, -1), box * abs(u[2]) / n_rays
+
+
+@pytest.mark.parametrize("u", [[0.8, 0.5, -0.3], [-0.2, 0.9, -0.6]])
+def test_height_map_shadowing_agrees_with_ray_casting(u):
+    """Independent check of the exact lit areas: the beam each triangle intercepts first."""
+    rng = np.random.default_rng(1)
+    hm = mbi.HeightMap(rng.normal(size=(6, 5)) * 0.25, 0.3, 0.25, shadowing=True)
+    u = np.array(u) / np.linalg.norm(u)
+    who, per_ray = first_hits(hm, u, 400_000, rng)
+    hits = np.bincount(who[who >= 0], minlength=len(hm.areas))
+    exact = hm.lit_fraction(u) * hm.areas * np.abs(hm.normals @ u) / per_ray  # expected hits
+    seen = hits > 100
+    assert seen.sum() > 10
+    z_scores = (hits[seen] - exact[seen]) / np.sqrt(exact[seen])
+    assert np.max(np.abs(z_scores)) < 5
+    assert np.all(exact[hits == 0] < 30)  # triangles in full shadow are dark in both
+    unshadowed = hm.areas * np.abs(hm.normals @ u) / per_ray * (hm.normals @ u < 0)
+    assert np.max(np.abs(unshadowed - hits)[seen] / np.sqrt(hits[seen])) > 20  # shadowing matters here
+
+
+def test_height_map_shadowing_is_exact_against_a_fine_midpoint_rule():
+    rng = np.random.default_rng(0)
+    hm = mbi.HeightMap(rng.normal(size=(10, 10)) * 0.1, 0.1, 0.1, shadowing=True)
+    u = np.array([0.7, 0.4, -0.5])
+    ut = math.hypot(u[0], u[1])
+    d = u[:2] / ut
+    e = np.array([-d[1], d[0]])
+    x, y = np.meshgrid(np.arange(10) * 0.1, np.arange(10) * 0.1, indexing="ij")
+    s = (x * e[0] + y * e[1]).ravel()
+    errors = []
+    for planes in (10_000, 40_000):
+        edges = np.linspace(s.min(), s.max(), planes + 1)
+        tri, length = hm._lit_lengths(0.5 * (edges[1:] + edges[:-1]), d, e, abs(u[2]) / ut)
+        ok = tri >= 0
+        lit = np.bincount(tri[ok], weights=(length * (edges[1] - edges[0]))[ok], minlength=len(hm.areas))
+        errors.append(np.abs(lit / 0.005 - hm.lit_fraction(u)).max())
+    assert errors[1] < 2e-6 and errors[1] < errors[0] / 8  # the midpoint rule converges to it like h²
+
+
+@pytest.mark.parametrize("tan_beta", [0.5, 1.5, 2.3, 6.0])
+def test_sawtooth_height_map_shadows_exactly_the_closed_form(tan_beta):
+    """Teeth of period 1 and slope tan α; below the switch (tan α tan β < 1) nothing facing the
+    motion is shadowed; above it the rising face of every tooth after the first is lit from
+    x* = tan α / (tan α + cot β) (the ray from the previous peak) onwards."""
+    alpha, dx = 0.4, 0.05
+    x = np.arange(41) * dx
+    z = np.tile((np.tan(alpha) * np.abs((x % 1.0) - 0.5))[:, None], (1, 3))
+    hm = mbi.HeightMap(z, dx, 0.1, shadowing=True)
+    lit = hm.lit_fraction(np.array([tan_beta, 0.0, -1.0]))
+    x_star = max(0.5, math.tan(alpha) / (math.tan(alpha) + 1 / tan_beta))
+    cells = np.arange(30, 40)  # the rising face of the second tooth, x in [1.5, 2]
+    a = np.clip((1 + x_star - cells * dx) / dx, 0.0, 1.0)  # shadow edge, in cell units
+    lower = 2 * (a * (1 - a) + (1 - a) ** 2 / 2)  # triangle (00, 10, 11): x-fraction ≥ y-fraction
+    upper = (1 - a) ** 2  # triangle (00, 11, 01)
+    for j in (0, 1):
+        np.testing.assert_allclose(lit[cells * 2 + j], lower, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(lit[40 * 2 + cells * 2 + j], upper, rtol=0, atol=1e-12)
+    assert (tan_beta * math.tan(alpha) < 1) == np.all(lower == 1.0)
+    plain = mbi.RoughLaw(mbi.HeightMap(z, dx, 0.1), 0.5).apply(I3, I3, [tan_beta, 0, -1.0], [0, 0, 1]).dv
+    shadowed = mbi.RoughLaw(hm, 0.5).apply(I3, I3, [tan_beta, 0, -1.0], [0, 0, 1]).dv
+    if tan_beta * math.tan(alpha) < 1:
+        np.testing.assert_allclose(shadowed, plain, rtol=1e-13, atol=1e-13)
 
 
 def test_height_map_facets_are_weighted_by_true_area():
