@@ -30,7 +30,7 @@ __all__ = ["RoughLaw"]
 # (mbimpact.ring): a one-off FFT, then O(degree) work per truncated row.
 _RING_ROWS = 32
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
-_PEAKED = 0.05
+_PEAKED = 0.15
 
 _Rule = Callable[[NDArray[np.float64], int], tuple[NDArray[np.float64], NDArray[np.float64]]]
 

