@@ -19,7 +19,7 @@ from .laws import (
     _relative_change,
     _restitution,
 )
-from .metric import spread_bound
+from .metric import eigen_ratio
 from .quadrature import graded_azimuth_rule, ring_minima
 from .ring import ring_expansion
 from .roughness import Cone, Roughness
@@ -256,8 +256,8 @@ class RoughLaw(ImpactLaw):
         rough = self.roughness
         if not isinstance(rough, Cone) or rough.alpha == 0.0 or W.shape != (3, 3):
             return None
-        # q_min / q_max ≥ λ_min / λ_max, and peaks of width ε need q_min / q_max ≈ ε²
-        if spread_bound(W) > _PEAKED**2:
+        # q_min ≥ λ_min and q'' ≤ 8 λ_max on the ring, so ε = sqrt(2 q_min / q'') ≥ sqrt(λ_min / 4 λ_max)
+        if eigen_ratio(W) > 4 * _PEAKED**2:
             return None
         minima = ring_minima(rough.alpha, W)
         # ε ≲ 1e-7 means q_min / q_max ≲ 1e-14: facets the mechanism cannot push (skipped as
