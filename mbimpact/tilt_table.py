@@ -1,0 +1,257 @@
+"""(2.8) for an isotropic tilt density at a fixed Delassus matrix, tabulated in the incidence.
+
+For facets m(α, φ) = (sin α cos φ, sin α sin φ, cos α) with tilt density p(α) and
+uniform azimuth, and a unit contact velocity u of incidence β and azimuth ψ
+(local frame), write mᵀu = b cos θ − a with θ = φ − ψ, a = cos α cos β,
+b = sin α sin β. The kernels of (2.8) at fixed W,
+
+    g_j(α, φ) = m_j / (mᵀWm)^γ  (j = 0, 1, 2),     g_3(α, φ) = (mᵀWm)^(−δ),
+
+((γ, δ) = (3/2, 1/2) for the A-metric flux, (1, 0) for the contact flux) have
+Fourier series Σ_l G_jl(α) e^{ilφ}. The facing set {b cos θ < a} is symmetric in
+θ, so its integrals against e^{ilθ} are closed forms K_l(α, β) (real, even in l), and
+
+    N_j(u) = Σ_l e^{ilψ} H_jl(β),     H_jl(β) = ∫ p(α) G_jl(α) K_l(α, β) dα,
+
+and likewise D(u) with K'_l. The functions H_jl depend on the incidence β only:
+they are tabulated once per (measure, W) as Chebyshev series in τ, β = β_h + τ²,
+where β_h = π/2 − α_max is the incidence below which no facet is hidden (there the
+α-integral is a closed form in cos β, sin β). Each velocity of a batch then costs
+one Chebyshev evaluation and one Fourier sum in ψ.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .quadrature import gauss_legendre
+from .ring import _powers
+
+if TYPE_CHECKING:
+    from .slopes import IsotropicSlopes
+
+__all__ = ["TiltTable", "tilt_table"]
+
+# Accept a series when its tail is below this fraction of its size; beyond the
+# limits the measure is too rough for a table and the law uses its quadrature.
+_TAIL = 1e-14
+_MAX_FOURIER = 256
+_MAX_CHEBYSHEV = 128
+# Gauss–Legendre nodes in tilt on each side of α* = π/2 − β.
+_TILT_NODES = 64
+
+
+@dataclass(frozen=True, eq=False)
+class TiltTable:
+    """Chebyshev tables of H_jl(β) for one isotropic measure and one W.
+
+    Attributes
+    ----------
+    beta_h : float
+        Incidence below which every facet faces u (π/2 − α_max).
+    moments : ndarray, shape (4, 3, 5)
+        For β ≤ β_h: ∫ p G_jl (cos²α, sin²α, sin α cos α, cos α, sin α) dα for l = 0, 1, 2.
+    cheb : ndarray, shape (D, 4, L + 1), complex
+        Chebyshev coefficients of H_jl in x ∈ [−1, 1], τ = τ_max (x + 1) / 2.
+    tau_max : float
+    tail : float
+        Largest relative coefficient dropped (Fourier in φ, Chebyshev in τ).
+    """
+
+    beta_h: float
+    moments: NDArray[np.complex128]
+    cheb: NDArray[np.complex128]
+    tau_max: float
+    tail: float
+
+    @property
+    def degree(self) -> int:
+        """Fourier degree L in the azimuth."""
+        return self.cheb.shape[2] - 1
+
+    def integrals(self, U: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """N (B, 3) and D (B,) of (2.8) for unit local-frame velocities U (B, 3), U[:, 2] < 0."""
+        ut = np.hypot(U[:, 0], U[:, 1])
+        beta = np.arctan2(ut, -U[:, 2])
+        H = np.empty((len(U), 4, self.degree + 1), dtype=complex)
+        low = beta <= self.beta_h
+        if low.any():
+            H[low] = self._full(beta[low])
+        high = np.flatnonzero(~low)
+        if high.size:
+            x = 2.0 * np.sqrt(beta[high] - self.beta_h) / self.tau_max - 1.0
+            T = _chebyshev_basis(np.clip(x, -1.0, 1.0), self.cheb.shape[0])
+            flat = self.cheb.reshape(self.cheb.shape[0], -1)
+            H[high] = ((T @ flat.real) + 1j * (T @ flat.imag)).reshape(-1, 4, self.degree + 1)
+        # N_j = H_j0 + 2 Re Σ_{l ≥ 1} e^{ilψ} H_jl
+        psi = np.arctan2(U[:, 1], U[:, 0])
+        total = H[:, :, 0].real.copy()
+        if self.degree:
+            total += 2.0 * np.einsum("bl,bjl->bj", _powers(np.exp(1j * psi), self.degree), H[:, :, 1:]).real
+        return total[:, :3], total[:, 3]
+
+    def _full(self, beta: NDArray[np.float64]) -> NDArray[np.complex128]:
+        """H_jl for incidences at which every facet faces u: l = 0, 1, 2 only."""
+        cb, sb = np.cos(beta), np.sin(beta)
+        mo = self.moments  # (4, 3, 5): c², s², sc, c, s
+        H = np.zeros((len(beta), 4, self.degree + 1), dtype=complex)
+        # numerator kernels: K_0 = a² + b²/2, K_1 = −ab, K_2 = b²/4 (a = c cos β, b = s sin β)
+        H[:, :3, 0] = cb[:, None] ** 2 * mo[None, :3, 0, 0] + 0.5 * sb[:, None] ** 2 * mo[None, :3, 0, 1]
+        if self.degree >= 1:
+            H[:, :3, 1] = -(cb * sb)[:, None] * mo[None, :3, 1, 2]
+            # denominator kernel: K'_0 = a, K'_1 = −b/2
+            H[:, 3, 1] = -0.5 * sb * mo[3, 1, 4]
+        if self.degree >= 2:
+            H[:, :3, 2] = 0.25 * sb[:, None] ** 2 * mo[None, :3, 2, 1]
+        H[:, 3, 0] = cb * mo[3, 0, 3]
+        return H
+
+
+def _chebyshev_basis(x: NDArray[np.float64], D: int) -> NDArray[np.float64]:
+    """T_0 … T_{D−1} at x, shape (len(x), D), by the three-term recurrence."""
+    T = np.empty((len(x), D))
+    T[:, 0] = 1.0
+    if D > 1:
+        T[:, 1] = x
+    for k in range(2, D):
+        T[:, k] = 2.0 * x * T[:, k - 1] - T[:, k - 2]
+    return T
+
+
+def _arc_weights(theta0: NDArray[np.float64], L: int) -> tuple[NDArray[np.float64], ...]:
+    """E_l[1], E_l[cos θ], E_l[cos² θ] over the facing set (θ0, 2π − θ0) / 2π, l = 0..L."""
+    m = np.arange(0, L + 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Jm = np.where(m == 0, (math.pi - theta0[..., None]) / math.pi,
+                      -np.sin(m * theta0[..., None]) / (math.pi * np.where(m == 0, 1, m)))
+    J = lambda k: Jm[..., np.abs(k)]  # noqa: E731 — J_{−m} = J_m
+    l = np.arange(L + 1)
+    e0 = J(l)
+    e1 = 0.5 * (J(l - 1) + J(l + 1))
+    e2 = 0.25 * (J(l - 2) + 2.0 * J(l) + J(l + 2))
+    return e0, e1, e2
+
+
+def _fourier(alpha: NDArray[np.float64], W: NDArray[np.float64], metric_flux: bool, M: int) -> NDArray[np.complex128] | None:
+    """G_jl(α) for l = 0 … M/2 at the tilts ``alpha`` (A,), shape (A, 4, M/2 + 1); None if mᵀWm ≤ 0."""
+    phi = 2.0 * math.pi * np.arange(M) / M
+    s, c = np.sin(alpha)[:, None], np.cos(alpha)[:, None]
+    m = np.stack([s * np.cos(phi), s * np.sin(phi), np.broadcast_to(c, (len(alpha), M))], axis=-1)  # (A, M, 3)
+    q = np.einsum("amd,de,ame->am", m, W, m)
+    if not np.all(q > 1e-14 * np.trace(W)):
+        return None
+    g = np.concatenate([m / (q**1.5 if metric_flux else q)[..., None],
+                        (1.0 / np.sqrt(q) if metric_flux else np.ones_like(q))[..., None]], axis=-1)  # (A, M, 4)
+    # G_jl = (1/M) Σ_k g(φ_k) e^{−ilφ_k}: the coefficient of e^{ilφ}
+    return np.moveaxis(np.fft.rfft(g, axis=1) / M, 1, 2)
+
+
+def _tilt_nodes(lo: float, hi: float, a_star: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Tilt nodes and weights on [lo, α*] (full rings) and [α*, hi] (cut rings, α = α* + t²)."""
+    x, w = gauss_legendre(_TILT_NODES)
+    a = min(max(a_star, lo), hi)
+    full = lo + (a - lo) * (x + 1) / 2, (a - lo) / 2 * w
+    tmax = math.sqrt(hi - a)
+    t = tmax * (x + 1) / 2
+    cut = a + t * t, tmax / 2 * w * 2 * t
+    return (np.concatenate([full[0], cut[0]]), np.concatenate([full[1], cut[1]]),
+            np.concatenate([np.zeros(x.size, bool), np.ones(x.size, bool)]))
+
+
+def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M: int
+       ) -> tuple[NDArray[np.complex128], float] | None:
+    """H_jl(β) for l = 0 … M/2 by Gauss–Legendre in the tilt, split at α* = π/2 − β."""
+    lo, hi = rough.support
+    alpha, dalpha, _ = _tilt_nodes(lo, hi, math.pi / 2 - beta)
+    G = _fourier(alpha, W, metric_flux, M)
+    if G is None:
+        return None
+    L = M // 2
+    a = np.cos(alpha) * math.cos(beta)
+    b = np.sin(alpha) * math.sin(beta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta0 = np.where(b > a, np.arccos(np.clip(a / np.where(b > a, b, 1.0), -1.0, 1.0)), 0.0)
+    e0, e1, e2 = _arc_weights(theta0, L)
+    K_num = a[:, None] ** 2 * e0 - 2 * (a * b)[:, None] * e1 + b[:, None] ** 2 * e2  # (A, L + 1)
+    K_den = a[:, None] * e0 - b[:, None] * e1
+    weight = rough._density(alpha) * dalpha  # noqa: SLF001 — the normalised density
+    H = np.empty((4, L + 1), dtype=complex)
+    H[:3] = np.einsum("a,ajl,al->jl", weight, G[:, :3], K_num)
+    H[3] = np.einsum("a,al,al->l", weight, G[:, 3], K_den)
+    tail = float(np.abs(G[:, :, 3 * L // 4 :]).max() / np.abs(G[:, :, 0]).max())
+    return H, tail
+
+
+@functools.lru_cache(maxsize=8)
+def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTable | None:
+    W = np.frombuffer(W_bytes).reshape(3, 3)
+    lo, hi = rough.support
+    if lo != 0.0:
+        return None  # a second kink at β = π/2 − lo: not tabulated
+    # Fourier degree in φ: enough for the sharpest ring, the one of largest tilt
+    M = 64
+    while True:
+        G = _fourier(np.array([hi]), W, metric_flux, M)
+        if G is None:
+            return None
+        if np.abs(G[0, :, 3 * M // 8 :]).max() <= _TAIL * np.abs(G[0, :, 0]).max():
+            break
+        M *= 2
+        if M // 2 > _MAX_FOURIER:
+            return None
+    # moments for β ≤ β_h (all rings full): l = 0, 1, 2
+    x, w = gauss_legendre(_TILT_NODES)
+    alpha = lo + (hi - lo) * (x + 1) / 2
+    weight = rough._density(alpha) * (hi - lo) / 2 * w  # noqa: SLF001
+    Gm = _fourier(alpha, W, metric_flux, M)
+    if Gm is None:
+        return None
+    c, s = np.cos(alpha), np.sin(alpha)
+    basis = np.stack([c * c, s * s, s * c, c, s], axis=1)  # (A, 5)
+    moments = np.einsum("a,ajl,ak->jlk", weight, Gm[:, :, :3], basis)
+    beta_h = math.pi / 2 - hi
+    tau_max = math.sqrt(math.pi / 2 - beta_h)
+    D = 32
+    while D <= _MAX_CHEBYSHEV:
+        xk = np.cos(math.pi * (np.arange(D) + 0.5) / D)  # Chebyshev points of the first kind
+        values, tail_f = [], 0.0
+        for xi in xk:
+            tau = tau_max * (xi + 1) / 2
+            out = _H(beta_h + tau * tau, rough, W, metric_flux, M)
+            if out is None:
+                return None
+            values.append(out[0])
+            tail_f = max(tail_f, out[1])
+        V = np.array(values)  # (D, 4, L + 1)
+        # coefficients by the discrete cosine transform on those points
+        k = np.arange(D)
+        T = np.cos(np.outer(k, math.pi * (np.arange(D) + 0.5) / D))  # (k, node)
+        coef = (2.0 / D) * np.tensordot(T, V, axes=1)
+        coef[0] /= 2.0
+        scale = np.abs(coef).max()
+        tail_c = float(np.abs(coef[3 * D // 4 :]).max() / scale)
+        if tail_c <= _TAIL:
+            # keep the terms that matter: azimuthal degree and Chebyshev degree
+            big = np.abs(coef) > 0.1 * _TAIL * scale
+            L = max(2, int(np.flatnonzero(big.any(axis=(0, 1))).max()))
+            Dk = int(np.flatnonzero(big.any(axis=(1, 2))).max()) + 1
+            return TiltTable(beta_h, moments, np.ascontiguousarray(coef[:Dk, :, : L + 1]), tau_max,
+                             max(tail_f, tail_c))
+        D *= 2
+    return None
+
+
+def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) -> TiltTable | None:
+    """The cached :class:`TiltTable` of a spatial isotropic measure for Delassus matrix ``W`` (3, 3).
+
+    Returns None when the measure's support does not start at α = 0, or when the
+    kernels are too peaked (nearly singular W) for series within the limits: the
+    law then uses its quadrature.
+    """
+    return _cached(rough, np.ascontiguousarray(W, dtype=float).tobytes(), bool(metric_flux))

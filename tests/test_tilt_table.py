@@ -1,0 +1,117 @@
+"""Tilt-density tables at fixed W (batch path of IsotropicSlopes / GaussianSlopes)."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+from mbimpact.tilt_table import tilt_table
+
+from conftest import mechanism, spd
+
+I3 = np.eye(3)
+
+
+def unit_velocities(rng, count, beta_max=math.pi / 2 - 1e-9):
+    beta = np.linspace(0.0, beta_max, count)
+    psi = rng.uniform(0.0, 2 * math.pi, count)
+    return np.column_stack([np.sin(beta) * np.cos(psi), np.sin(beta) * np.sin(psi), -np.cos(beta)])
+
+
+def relative(P, ref, W):
+    return np.linalg.norm((P - ref) @ W, axis=1) / np.linalg.norm(ref @ W, axis=1)
+
+
+MEASURES = {
+    "gaussian": lambda x: mbi.GaussianSlopes(0.05 + 0.4 * x),
+    # a density that does not vanish at the end of its support: the table's τ² substitution
+    "bounded": lambda x: mbi.IsotropicSlopes(lambda a: np.sin(2 * a) * (1 + np.cos(3 * a)), support=(0.0, 0.6 + 0.6 * x)),
+}
+
+
+@settings(max_examples=8)  # each example builds a table (~0.3–1 s)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(sorted(MEASURES)), st.floats(0.0, 1.0),
+       st.sampled_from(["metric", "contact"]), st.floats(1.0, 30.0))
+def test_table_equals_the_adaptive_product_rule(seed, kind, x, flux, cond):
+    rng = np.random.default_rng(seed)
+    W = spd(rng, 3, cond)
+    rough = MEASURES[kind](x)
+    U = unit_velocities(rng, 300)
+    law = mbi.RoughLaw(rough, 0.5, flux=flux)
+    table = tilt_table(rough, W, flux == "metric")
+    assert table is not None or cond > 10  # only strongly anisotropic W may be too peaked for a table
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.AccuracyWarning)  # the product rule may stop short of 1e-12
+        P, err, _ = law.contact_impulses(W, U)  # ≥ 256 rows: the table (else the product rule)
+        ref, ref_err, _ = law.contact_impulses(W, U[::15].copy())  # 20 rows: the product rule
+    assert np.all(relative(P[::15], ref, W) < np.maximum(1e-12, 10 * ref_err))
+    if table is not None:
+        assert np.all(err < 1e-12)
+
+
+def test_table_reproduces_corrected_2_10_and_4_2_for_a_point_mass():
+    """W = I: normal incidence obeys (4.2); below β_h (every facet faces u) the corrected (2.10)."""
+    rough, e = mbi.GaussianSlopes(0.2), 0.3
+    beta_h = math.pi / 2 - rough.support[1]
+    rng = np.random.default_rng(3)
+    U = unit_velocities(rng, 400, beta_max=beta_h * 0.999)
+    res = mbi.RoughLaw(rough, e).apply_batch(I3, I3, 2.0 * U, [0, 0, 1])
+    c1 = rough.moment(np.cos)
+    c3 = rough.moment(lambda a: np.cos(a) ** 3)
+    s2c = rough.moment(lambda a: np.sin(a) ** 2 * np.cos(a))
+    vl, vn = 2.0 * U[:, :2], np.abs(2.0 * U[:, 2])
+    closed = (1 + e) / c1 * np.column_stack([-vl * s2c, vn * c3 + (vl * vl).sum(1) / vn * s2c / 2])
+    np.testing.assert_allclose(res.dV, closed, rtol=1e-12, atol=1e-12 * np.abs(closed).max())
+    assert res.kappa[0] == pytest.approx((1 + e) * c3 / c1 - 1, rel=1e-13)
+
+
+def test_batch_on_a_robot_equals_single_impacts():
+    mech = mechanism("ur5")
+    q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
+    J, A = mech.point_jacobian(q, "tool0"), mech.mass_matrix(q)
+    rng = np.random.default_rng(8)
+    V = rng.normal(size=(600, 6))
+    V[V @ J[2] > 0] *= -1
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.6)
+    batch = law.apply_batch(A, J, V, [0, 0, 1])
+    assert batch.nodes < 200  # a table, not a 2 n² product rule
+    for i in (0, 299, 599):
+        one = law.apply(A, J, V[i], [0, 0, 1])
+        np.testing.assert_allclose(batch.V_plus[i], one.v_plus, rtol=1e-12, atol=1e-12)
+    assert np.all(batch.energy_loss >= 0.0)
+
+
+def test_no_table_when_the_support_does_not_start_at_zero():
+    """A second kink at β = π/2 − lo is not tabulated; the batch uses the product rule."""
+    rough = mbi.IsotropicSlopes(lambda a: np.ones_like(a), support=(0.2, 0.7))
+    W = spd(np.random.default_rng(1), 3, 10.0)
+    assert tilt_table(rough, W, True) is None
+    U = unit_velocities(np.random.default_rng(2), 260)
+    P, _, nodes = mbi.RoughLaw(rough, 0.5).contact_impulses(W, U)
+    assert np.all(np.isfinite(P)) and nodes >= 8
+
+
+def test_no_table_for_a_nearly_singular_w():
+    mech = mechanism("ur5")
+    q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    J = mech.point_jacobian(q, "tool0")
+    W = J @ np.linalg.solve(mech.mass_matrix(q), J.T)
+    assert tilt_table(mbi.GaussianSlopes(0.3), 0.5 * (W + W.T), True) is None
+
+
+@pytest.mark.parametrize("scale", [1e-8, 1e8])
+def test_table_path_is_homogeneous_of_degree_one(scale):
+    rng = np.random.default_rng(4)
+    A, J = spd(rng, 5, 1e2), rng.normal(size=(3, 5))
+    V = rng.normal(size=(300, 5))
+    V[V @ J[2] > 0] *= -1
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.4), 0.2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        base = law.apply_batch(A, J, V, [0, 0, 1]).dV
+        scaled = law.apply_batch(A, J, scale * V, [0, 0, 1]).dV
+    np.testing.assert_allclose(scaled, scale * base, rtol=1e-12, atol=1e-12 * scale * np.abs(base).max())
