@@ -32,7 +32,7 @@ __all__ = ["RoughLaw"]
 # (mbimpact.ring): a one-off FFT, then O(degree) work per truncated row.
 _RING_ROWS = 32
 # From this many rows on, a spatial isotropic tilt density is averaged by its table in the
-# incidence at fixed W (mbimpact.tilt_table): ~0.3 s to build, then µs per row.
+# incidence at fixed W (mbimpact.tilt_table): 0.1–3 s to build, then µs per row.
 _TABLE_ROWS = 256
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
 _PEAKED = 0.15
@@ -101,7 +101,7 @@ class RoughLaw(ImpactLaw):
     Batches of at least 256 velocities on a spatial :class:`IsotropicSlopes` or
     :class:`GaussianSlopes` whose support starts at α = 0 use a table of (2.8)
     in the incidence angle at the fixed W (:mod:`mbimpact.tilt_table`, built once
-    in ~0.3–2 s, then microseconds per velocity) instead of the tilt × azimuth
+    in 0.1–3 s, then microseconds per velocity) instead of the tilt × azimuth
     product rule.
     """
 

@@ -42,7 +42,7 @@ __all__ = ["TiltTable", "tilt_table"]
 # limits the measure is too rough for a table and the law uses its quadrature.
 _TAIL = 1e-14
 _MAX_FOURIER = 256
-_MAX_CHEBYSHEV = 128
+_MAX_CHEBYSHEV = 512
 # Gauss–Legendre nodes in tilt on each side of α* = π/2 − β.
 _TILT_NODES = 64
 
@@ -217,25 +217,31 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
     moments = np.einsum("a,ajl,ak->jlk", weight, Gm[:, :, :3], basis)
     beta_h = math.pi / 2 - hi
     tau_max = math.sqrt(math.pi / 2 - beta_h)
-    D = 32
-    while D <= _MAX_CHEBYSHEV:
-        xk = np.cos(math.pi * (np.arange(D) + 0.5) / D)  # Chebyshev points of the first kind
-        values, tail_f = [], 0.0
-        for xi in xk:
-            tau = tau_max * (xi + 1) / 2
-            out = _H(beta_h + tau * tau, rough, W, metric_flux, M)
-            if out is None:
-                return None
-            values.append(out[0])
-            tail_f = max(tail_f, out[1])
-        V = np.array(values)  # (D, 4, L + 1)
-        # coefficients by the discrete cosine transform on those points
-        k = np.arange(D)
-        T = np.cos(np.outer(k, math.pi * (np.arange(D) + 0.5) / D))  # (k, node)
-        coef = (2.0 / D) * np.tensordot(T, V, axes=1)
-        coef[0] /= 2.0
+    # Chebyshev points of the second kind, x_k = cos(πk/N): doubling N reuses every value
+    N = 32
+    values: dict[int, NDArray[np.complex128]] = {}  # by k at resolution _MAX_CHEBYSHEV
+    tail_f = 0.0
+    while N <= _MAX_CHEBYSHEV:
+        stride = _MAX_CHEBYSHEV // N
+        for k in range(N + 1):
+            if k * stride not in values:
+                tau = tau_max * (math.cos(math.pi * k / N) + 1) / 2
+                out = _H(beta_h + tau * tau, rough, W, metric_flux, M)
+                if out is None:
+                    return None
+                values[k * stride], tail_f = out[0], max(tail_f, out[1])
+        V = np.array([values[k * stride] for k in range(N + 1)])  # (N + 1, 4, L + 1)
+        # coefficients by the DCT-I on those points (end terms halved)
+        k = np.arange(N + 1)
+        T = np.cos(np.pi * np.outer(k, k) / N)
+        V_half = V.copy()
+        V_half[0] /= 2
+        V_half[-1] /= 2
+        coef = (2.0 / N) * np.tensordot(T, V_half, axes=1)
+        coef[0] /= 2
+        coef[-1] /= 2
         scale = np.abs(coef).max()
-        tail_c = float(np.abs(coef[3 * D // 4 :]).max() / scale)
+        tail_c = float(np.abs(coef[3 * N // 4 :]).max() / scale)
         if tail_c <= _TAIL:
             # keep the terms that matter: azimuthal degree and Chebyshev degree
             big = np.abs(coef) > 0.1 * _TAIL * scale
@@ -243,7 +249,7 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
             Dk = int(np.flatnonzero(big.any(axis=(1, 2))).max()) + 1
             return TiltTable(beta_h, moments, np.ascontiguousarray(coef[:Dk, :, : L + 1]), tau_max,
                              max(tail_f, tail_c))
-        D *= 2
+        N *= 2
     return None
 
 

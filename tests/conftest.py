@@ -7,6 +7,7 @@ Hypothesis profiles: ``ci`` (default, fast) and ``nightly`` (``--hypothesis-prof
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import pytest
@@ -69,3 +70,27 @@ seeds = st.integers(min_value=0, max_value=2**32 - 1)
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)
+
+
+def unit_velocities(rng: np.random.Generator, count: int, beta_max: float = math.pi / 2 - 1e-9) -> np.ndarray:
+    """Local-frame unit velocities with incidence β spread over [0, beta_max] (both regimes), random azimuth."""
+    beta = np.linspace(0.0, beta_max, count)
+    psi = rng.uniform(0.0, 2 * math.pi, count)
+    return np.column_stack([np.sin(beta) * np.cos(psi), np.sin(beta) * np.sin(psi), -np.cos(beta)])
+
+
+def relative_du(P: np.ndarray, ref: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """Row-wise relative difference of contact impulses, measured by Δu = W P."""
+    return np.linalg.norm((P - ref) @ W, axis=1) / np.linalg.norm(ref @ W, axis=1)
+
+
+#: UR5 upright with the elbow straight: the contact Jacobian nearly loses rank (W spans 1e7).
+UPRIGHT_UR5 = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+
+
+def upright_ur5_delassus() -> np.ndarray:
+    """The (symmetrised) Delassus matrix of the UR5's tool0 at :data:`UPRIGHT_UR5`."""
+    mech = mechanism("ur5")
+    J = mech.point_jacobian(UPRIGHT_UR5, "tool0")
+    W = J @ np.linalg.solve(mech.mass_matrix(UPRIGHT_UR5), J.T)
+    return 0.5 * (W + W.T)

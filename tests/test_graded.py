@@ -11,9 +11,8 @@ from scipy import integrate
 import mbimpact as mbi
 from mbimpact.quadrature import graded_azimuth_rule, ring_minima
 
+from conftest import UPRIGHT_UR5 as UPRIGHT
 from conftest import mechanism
-
-UPRIGHT = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # UR5, elbow straight: W spans 1e7
 
 
 def upright_ur5():

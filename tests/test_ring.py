@@ -11,18 +11,7 @@ from hypothesis import strategies as st
 import mbimpact as mbi
 from mbimpact.ring import ring_expansion
 
-from conftest import ROBOTS, last_frame, mechanism, spd
-
-
-def unit_velocities(rng, count, beta_max=math.pi / 2 - 1e-9):
-    """Local-frame unit velocities with incidence β spread over [0, beta_max]: both regimes."""
-    beta = np.linspace(0.0, beta_max, count)
-    psi = rng.uniform(0.0, 2 * math.pi, count)
-    return np.column_stack([np.sin(beta) * np.cos(psi), np.sin(beta) * np.sin(psi), -np.cos(beta)])
-
-
-def relative(P, ref, W):
-    return np.linalg.norm((P - ref) @ W, axis=1) / np.linalg.norm(ref @ W, axis=1)
+from conftest import ROBOTS, last_frame, mechanism, relative_du, spd, unit_velocities, upright_ur5_delassus
 
 
 @given(st.integers(0, 2**32 - 1), st.floats(0.05, 1.5), st.sampled_from(["metric", "contact"]),
@@ -40,7 +29,7 @@ def test_ring_expansion_equals_exact_arc_quadrature(seed, alpha, flux, cond):
     if cond <= 100:  # beyond, strongly anisotropic W may need the graded quadrature instead
         assert ring_expansion(alpha, W, flux == "metric") is not None
     ref, _, _ = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux, nodes=1024).contact_impulses(W, U[:31].copy())
-    assert relative(P[:31], ref, W).max() < max(1e-12, 1e-14 * cond)  # rounding grows with cond W
+    assert relative_du(P[:31], ref, W).max() < max(1e-12, 1e-14 * cond)  # rounding grows with cond W
     assert np.all(err < 1e-11)  # truncation + rounding of up to 1024 terms
 
 
@@ -85,20 +74,17 @@ def test_ring_expansion_refuses_facets_the_mechanism_cannot_push():
 
 def test_nearly_singular_w_falls_back_on_quadrature():
     """UR5 upright: W's eigenvalues span 1e7, the kernels are too peaked for a short series."""
-    mech = mechanism("ur5")
-    q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
-    J = mech.point_jacobian(q, "tool0")
-    W = J @ np.linalg.solve(mech.mass_matrix(q), J.T)
-    assert ring_expansion(0.3, 0.5 * (W + W.T), True) is None
+    assert ring_expansion(0.3, upright_ur5_delassus(), True) is None
 
 
-@pytest.mark.parametrize("scale", [1e-8, 1.0, 1e8])
-def test_batch_path_is_homogeneous_of_degree_one(scale):
-    rng = np.random.default_rng(9)
+@pytest.mark.parametrize("scale", [1e-8, 1e8])
+@pytest.mark.parametrize("rough", [mbi.Cone(0.5), mbi.GaussianSlopes(0.4)], ids=repr)  # ring, tilt table
+def test_batch_paths_are_homogeneous_of_degree_one(scale, rough):
+    rng = np.random.default_rng(4)
     A, J = spd(rng, 5, 1e2), rng.normal(size=(3, 5))
     V = rng.normal(size=(300, 5))
     V[V @ J[2] > 0] *= -1
-    law = mbi.RoughLaw(mbi.Cone(0.5), 0.4)
+    law = mbi.RoughLaw(rough, 0.4)
     base = law.apply_batch(A, J, V, [0, 0, 1]).dV
     np.testing.assert_allclose(law.apply_batch(A, J, scale * V, [0, 0, 1]).dV, scale * base,
                                rtol=1e-12, atol=1e-12 * scale * np.abs(base).max())

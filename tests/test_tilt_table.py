@@ -11,19 +11,9 @@ from hypothesis import strategies as st
 import mbimpact as mbi
 from mbimpact.tilt_table import tilt_table
 
-from conftest import mechanism, spd
+from conftest import mechanism, relative_du, spd, unit_velocities, upright_ur5_delassus
 
 I3 = np.eye(3)
-
-
-def unit_velocities(rng, count, beta_max=math.pi / 2 - 1e-9):
-    beta = np.linspace(0.0, beta_max, count)
-    psi = rng.uniform(0.0, 2 * math.pi, count)
-    return np.column_stack([np.sin(beta) * np.cos(psi), np.sin(beta) * np.sin(psi), -np.cos(beta)])
-
-
-def relative(P, ref, W):
-    return np.linalg.norm((P - ref) @ W, axis=1) / np.linalg.norm(ref @ W, axis=1)
 
 
 MEASURES = {
@@ -48,7 +38,7 @@ def test_table_equals_the_adaptive_product_rule(seed, kind, x, flux, cond):
         warnings.simplefilter("ignore", mbi.AccuracyWarning)  # the product rule may stop short of 1e-12
         P, err, _ = law.contact_impulses(W, U)  # ≥ 256 rows: the table (else the product rule)
         ref, ref_err, _ = law.contact_impulses(W, U[::15].copy())  # 20 rows: the product rule
-    assert np.all(relative(P[::15], ref, W) < np.maximum(1e-12, 10 * ref_err))
+    assert np.all(relative_du(P[::15], ref, W) < np.maximum(1e-12, 10 * ref_err))
     if table is not None:
         assert np.all(err < 1e-12)
 
@@ -96,22 +86,4 @@ def test_no_table_when_the_support_does_not_start_at_zero():
 
 
 def test_no_table_for_a_nearly_singular_w():
-    mech = mechanism("ur5")
-    q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
-    J = mech.point_jacobian(q, "tool0")
-    W = J @ np.linalg.solve(mech.mass_matrix(q), J.T)
-    assert tilt_table(mbi.GaussianSlopes(0.3), 0.5 * (W + W.T), True) is None
-
-
-@pytest.mark.parametrize("scale", [1e-8, 1e8])
-def test_table_path_is_homogeneous_of_degree_one(scale):
-    rng = np.random.default_rng(4)
-    A, J = spd(rng, 5, 1e2), rng.normal(size=(3, 5))
-    V = rng.normal(size=(300, 5))
-    V[V @ J[2] > 0] *= -1
-    law = mbi.RoughLaw(mbi.GaussianSlopes(0.4), 0.2)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        base = law.apply_batch(A, J, V, [0, 0, 1]).dV
-        scaled = law.apply_batch(A, J, scale * V, [0, 0, 1]).dV
-    np.testing.assert_allclose(scaled, scale * base, rtol=1e-12, atol=1e-12 * scale * np.abs(base).max())
+    assert tilt_table(mbi.GaussianSlopes(0.3), upright_ur5_delassus(), True) is None
