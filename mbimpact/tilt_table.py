@@ -43,8 +43,12 @@ __all__ = ["TiltTable", "tilt_table"]
 _TAIL = 1e-14
 _MAX_FOURIER = 256
 _MAX_CHEBYSHEV = 512
-# Gauss–Legendre nodes in tilt on each side of α* = π/2 − β.
-_TILT_NODES = 64
+# Gauss–Legendre nodes in tilt on each side of α* = π/2 − β: the first count whose
+# moments agree with twice as many to _TAIL (a W with a small eigenvalue inside the
+# support makes the kernels peak in tilt as well as in azimuth), doubled for safety.
+_MIN_TILT_NODES, _MAX_TILT_NODES = 32, 1024
+# Kernel samples (β nodes × tilt nodes × azimuth samples) a table may cost to build (~2 s).
+_BUDGET = 2e7
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,9 +156,9 @@ def _fourier(alpha: NDArray[np.float64], W: NDArray[np.float64], metric_flux: bo
     return np.moveaxis(np.fft.rfft(g, axis=1) / M, 1, 2)
 
 
-def _tilt_nodes(lo: float, hi: float, a_star: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """Tilt nodes and weights on [lo, α*] (full rings) and [α*, hi] (cut rings, α = α* + t²)."""
-    x, w = gauss_legendre(_TILT_NODES)
+def _tilt_nodes(lo: float, hi: float, a_star: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """n tilt nodes and weights on [lo, α*] (full rings) and n on [α*, hi] (cut rings, α = α* + t²)."""
+    x, w = gauss_legendre(n)
     a = min(max(a_star, lo), hi)
     full = lo + (a - lo) * (x + 1) / 2, (a - lo) / 2 * w
     tmax = math.sqrt(hi - a)
@@ -164,11 +168,11 @@ def _tilt_nodes(lo: float, hi: float, a_star: float) -> tuple[NDArray[np.float64
             np.concatenate([np.zeros(x.size, bool), np.ones(x.size, bool)]))
 
 
-def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M: int
+def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M: int, n: int
        ) -> tuple[NDArray[np.complex128], float] | None:
-    """H_jl(β) for l = 0 … M/2 by Gauss–Legendre in the tilt, split at α* = π/2 − β."""
+    """H_jl(β) for l = 0 … M/2 by Gauss–Legendre in the tilt (n nodes a side), split at α* = π/2 − β."""
     lo, hi = rough.support
-    alpha, dalpha, _ = _tilt_nodes(lo, hi, math.pi / 2 - beta)
+    alpha, dalpha, _ = _tilt_nodes(lo, hi, math.pi / 2 - beta, n)
     G = _fourier(alpha, W, metric_flux, M)
     if G is None:
         return None
@@ -194,27 +198,42 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
     lo, hi = rough.support
     if lo != 0.0:
         return None  # a second kink at β = π/2 − lo: not tabulated
-    # Fourier degree in φ: enough for the sharpest ring, the one of largest tilt
+    # Fourier degree in φ: enough for the sharpest ring of the support
+    probe = np.linspace(lo, hi, 65)
     M = 64
     while True:
-        G = _fourier(np.array([hi]), W, metric_flux, M)
+        G = _fourier(probe, W, metric_flux, M)
         if G is None:
             return None
-        if np.abs(G[0, :, 3 * M // 8 :]).max() <= _TAIL * np.abs(G[0, :, 0]).max():
+        if np.all(np.abs(G[:, :, 3 * M // 8 :]).max(axis=(1, 2)) <= _TAIL * np.abs(G).max(axis=(1, 2))):
             break
         M *= 2
         if M // 2 > _MAX_FOURIER:
             return None
-    # moments for β ≤ β_h (all rings full): l = 0, 1, 2
-    x, w = gauss_legendre(_TILT_NODES)
-    alpha = lo + (hi - lo) * (x + 1) / 2
-    weight = rough._density(alpha) * (hi - lo) / 2 * w  # noqa: SLF001
-    Gm = _fourier(alpha, W, metric_flux, M)
-    if Gm is None:
-        return None
-    c, s = np.cos(alpha), np.sin(alpha)
-    basis = np.stack([c * c, s * s, s * c, c, s], axis=1)  # (A, 5)
-    moments = np.einsum("a,ajl,ak->jlk", weight, Gm[:, :, :3], basis)
+    # moments for β ≤ β_h (all rings full): l = 0, 1, 2; they also fix the tilt node count
+    def moments_with(n: int) -> NDArray[np.complex128] | None:
+        x, w = gauss_legendre(n)
+        alpha = lo + (hi - lo) * (x + 1) / 2
+        weight = rough._density(alpha) * (hi - lo) / 2 * w  # noqa: SLF001
+        Gm = _fourier(alpha, W, metric_flux, M)
+        if Gm is None:
+            return None
+        c, s = np.cos(alpha), np.sin(alpha)
+        basis = np.stack([c * c, s * s, s * c, c, s], axis=1)  # (A, 5)
+        return np.einsum("a,ajl,ak->jlk", weight, Gm[:, :, :3], basis)
+
+    n = _MIN_TILT_NODES
+    coarse = moments_with(n)
+    while True:
+        moments = moments_with(2 * n)
+        if coarse is None or moments is None:
+            return None
+        if np.abs(moments - coarse).max() <= _TAIL * np.abs(moments).max():
+            break
+        n, coarse = 2 * n, moments
+        if 2 * n > _MAX_TILT_NODES:
+            return None
+    n_tilt = 2 * n
     beta_h = math.pi / 2 - hi
     tau_max = math.sqrt(math.pi / 2 - beta_h)
     # Chebyshev points of the second kind, x_k = cos(πk/N): doubling N reuses every value
@@ -222,11 +241,13 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
     values: dict[int, NDArray[np.complex128]] = {}  # by k at resolution _MAX_CHEBYSHEV
     tail_f = 0.0
     while N <= _MAX_CHEBYSHEV:
+        if (N + 1) * 2 * n_tilt * M > _BUDGET:
+            return None  # too rough a table to be worth building: the product rule takes over
         stride = _MAX_CHEBYSHEV // N
         for k in range(N + 1):
             if k * stride not in values:
                 tau = tau_max * (math.cos(math.pi * k / N) + 1) / 2
-                out = _H(beta_h + tau * tau, rough, W, metric_flux, M)
+                out = _H(beta_h + tau * tau, rough, W, metric_flux, M, n_tilt)
                 if out is None:
                     return None
                 values[k * stride], tail_f = out[0], max(tail_f, out[1])
