@@ -253,8 +253,8 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
                 values[k * stride], tail_f = out[0], max(tail_f, out[1])
         V = np.array([values[k * stride] for k in range(N + 1)])  # (N + 1, 4, L + 1)
         # coefficients by the DCT-I on those points (end terms halved)
-        k = np.arange(N + 1)
-        T = np.cos(np.pi * np.outer(k, k) / N)
+        idx = np.arange(N + 1)
+        T = np.cos(np.pi * np.outer(idx, idx) / N)
         V_half = V.copy()
         V_half[0] /= 2
         V_half[-1] /= 2
