@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["RingExpansion", "ring_expansion"]
+__all__ = ["RingExpansion", "ring_expansion", "unit_powers"]
 
 # The series is accepted when every coefficient of its last quarter is below this
 # fraction of the kernel's size (FFT rounding sits near 1e-16); beyond _MAX_DEGREE
@@ -92,12 +92,13 @@ class RingExpansion:
         rows = max(1, _CHUNK // L)
         for start in range(0, len(U), rows):
             part = slice(start, start + rows)
-            diff = _powers(np.exp(1j * (centre[part] + half[part])), L) - _powers(np.exp(1j * (centre[part] - half[part])), L)
+            ends = np.exp(1j * (centre[part] + half[part])), np.exp(1j * (centre[part] - half[part]))
+            diff = unit_powers(ends[0], L) - unit_powers(ends[1], L)
             out[part] += np.concatenate([diff.imag, diff.real], axis=1) @ self.coef
         return out
 
 
-def _powers(z: NDArray[np.complex128], L: int) -> NDArray[np.complex128]:
+def unit_powers(z: NDArray[np.complex128], L: int) -> NDArray[np.complex128]:
     """z^l for l = 1..L, shape (B, L), by blocks (accurate to a few ulps, vectorised)."""
     hi_count = -(-L // _BLOCK)
     lo = np.cumprod(np.repeat(z[:, None], _BLOCK, axis=1), axis=1)  # z^1..z^BLOCK

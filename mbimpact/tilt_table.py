@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .quadrature import gauss_legendre
-from .ring import _powers
+from .ring import unit_powers
 
 if TYPE_CHECKING:
     from .slopes import IsotropicSlopes
@@ -97,7 +97,7 @@ class TiltTable:
         psi = np.arctan2(U[:, 1], U[:, 0])
         total = H[:, :, 0].real.copy()
         if self.degree:
-            total += 2.0 * np.einsum("bl,bjl->bj", _powers(np.exp(1j * psi), self.degree), H[:, :, 1:]).real
+            total += 2.0 * np.einsum("bl,bjl->bj", unit_powers(np.exp(1j * psi), self.degree), H[:, :, 1:]).real
         return total[:, :3], total[:, 3]
 
     def _full(self, beta: NDArray[np.float64]) -> NDArray[np.complex128]:
