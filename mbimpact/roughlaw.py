@@ -33,7 +33,7 @@ __all__ = ["RoughLaw"]
 _RING_ROWS = 32
 # From this many rows on, a spatial isotropic tilt density is averaged by its table in the
 # incidence at fixed W (mbimpact.tilt_table): 0.1–3 s to build, then µs per row.
-_TABLE_ROWS = 256
+_TABLE_ROWS = 1024
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
 _PEAKED = 0.15
 
@@ -98,7 +98,7 @@ class RoughLaw(ImpactLaw):
     functions of the arc end points, exact to rounding, and ``nodes`` on the
     result then reports the number of Fourier terms. Kernels too peaked for a
     series of degree ≤ 1024 (nearly singular W) fall back on the quadrature.
-    Batches of at least 256 velocities on a spatial :class:`IsotropicSlopes` or
+    Batches of at least 1024 velocities on a spatial :class:`IsotropicSlopes` or
     :class:`GaussianSlopes` whose support starts at α = 0 use a table of (2.8)
     in the incidence angle at the fixed W (:mod:`mbimpact.tilt_table`, built once
     in 0.1–3 s, then microseconds per velocity) instead of the tilt × azimuth
@@ -254,8 +254,8 @@ class RoughLaw(ImpactLaw):
                 # truncation plus the rounding of a sum of `degree` terms
                 err = np.full(len(U), (ring.tail + np.finfo(float).eps) * ring.degree)
                 return (1.0 + self.e) * N / D[:, None], err, 2 * ring.degree + 1
-        if (self.nodes is None and len(U) >= _TABLE_ROWS and isinstance(rough, IsotropicSlopes) and rough.dim == 3):
-            table = tilt_table(rough, W, self.flux == "metric")
+        if self.nodes is None and isinstance(rough, IsotropicSlopes) and rough.dim == 3:
+            table = tilt_table(rough, W, self.flux == "metric", build=len(U) >= _TABLE_ROWS)
             if table is not None:
                 N, D = table.integrals(U)
                 self._check_facing(D, U)

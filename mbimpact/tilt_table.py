@@ -22,8 +22,8 @@ one Chebyshev evaluation and one Fourier sum in ψ.
 
 from __future__ import annotations
 
-import functools
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -192,9 +192,7 @@ def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux:
     return H, tail
 
 
-@functools.lru_cache(maxsize=8)
-def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTable | None:
-    W = np.frombuffer(W_bytes).reshape(3, 3)
+def _build(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) -> TiltTable | None:
     lo, hi = rough.support
     if lo != 0.0:
         return None  # a second kink at β = π/2 − lo: not tabulated
@@ -274,11 +272,31 @@ def _cached(rough: IsotropicSlopes, W_bytes: bytes, metric_flux: bool) -> TiltTa
     return None
 
 
-def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) -> TiltTable | None:
+# The last few tables (or refusals), by (measure, W, flux): a batch is split into blocks
+# of rows that share W, and a table is worth building once per batch only.
+_CACHE: OrderedDict[tuple[int, bytes, bool], tuple[IsotropicSlopes, TiltTable | None]] = OrderedDict()
+_CACHE_SIZE = 8
+
+
+def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, build: bool = True
+               ) -> TiltTable | None:
     """The cached :class:`TiltTable` of a spatial isotropic measure for Delassus matrix ``W`` (3, 3).
 
     Returns None when the measure's support does not start at α = 0, or when the
     kernels are too peaked (nearly singular W) for series within the limits: the
-    law then uses its quadrature.
+    law then uses its quadrature. With ``build=False`` only a table already built
+    is returned (a small block of a batch reuses it but does not pay for one).
     """
-    return _cached(rough, np.ascontiguousarray(W, dtype=float).tobytes(), bool(metric_flux))
+    W = np.ascontiguousarray(W, dtype=float)
+    key = (id(rough), W.tobytes(), bool(metric_flux))
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0] is rough:
+        _CACHE.move_to_end(key)
+        return hit[1]
+    if not build:
+        return None
+    table = _build(rough, W, bool(metric_flux))
+    _CACHE[key] = (rough, table)  # the measure is kept alive, so its id stays unique
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return table

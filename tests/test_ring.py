@@ -82,7 +82,7 @@ def test_nearly_singular_w_falls_back_on_quadrature():
 def test_batch_paths_are_homogeneous_of_degree_one(scale, rough):
     rng = np.random.default_rng(4)
     A, J = spd(rng, 5, 1e2), rng.normal(size=(3, 5))
-    V = rng.normal(size=(300, 5))
+    V = rng.normal(size=(1100, 5))  # enough rows for both batch paths
     V[V @ J[2] > 0] *= -1
     law = mbi.RoughLaw(rough, 0.4)
     base = law.apply_batch(A, J, V, [0, 0, 1]).dV
