@@ -325,13 +325,13 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 5.2))
     acc = [r for r in rows if r.part == "accuracy"]
     for method in dict.fromkeys(r.method for r in acc):
         pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if r.method == method]
         ax1.scatter(*zip(*pts), label=method, s=18)
     ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of P",
-            title="Accuracy vs time, cone α = 0.4 (all β, both cases)")
+            title="Accuracy vs time, cone α = 0.4 (all β, all cases)")
     ax1.legend(fontsize=8)
     bat = [r for r in rows if r.part == "batch"]
     for name, param in dict.fromkeys((r.method, r.param) for r in bat):
@@ -339,7 +339,7 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
                         for r in bat if (r.method, r.param) == (name, param))
         ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
     ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
-    ax2.legend(fontsize=8)
+    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
