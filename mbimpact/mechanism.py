@@ -8,6 +8,7 @@ no meshes are loaded.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,14 +41,27 @@ class Mechanism:
     model: Any
     name: str = "mechanism"
     source: Path | None = None
-    data: Any = field(init=False, repr=False)
+    _local: threading.local = field(init=False, repr=False)
     _frame_ids: dict[str, int] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, pin.Model):
             raise ParameterError(f"model must be a pinocchio.Model, got {type(self.model).__name__}")
-        object.__setattr__(self, "data", self.model.createData())
+        object.__setattr__(self, "_local", threading.local())
         object.__setattr__(self, "_frame_ids", {})
+
+    @property
+    def data(self) -> Any:
+        """Pinocchio workspace, one per thread: a sequence of calls (crba, then the
+        Cholesky factor, then a solve) never sees another thread's intermediate state."""
+        data = getattr(self._local, "data", None)
+        if data is None:
+            data = self._local.data = self.model.createData()
+        return data
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # the workspace is per thread and per process: rebuild it on unpickling
+        return (type(self), (self.model, self.name, self.source))
 
     # ------------------------------------------------------------ constructors
     @classmethod
