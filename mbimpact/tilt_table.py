@@ -23,6 +23,7 @@ one Chebyshev evaluation and one Fourier sum in ψ.
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -276,6 +277,7 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) ->
 # of rows that share W, and a table is worth building once per batch only.
 _CACHE: OrderedDict[tuple[int, bytes, bool], tuple[IsotropicSlopes, TiltTable | None]] = OrderedDict()
 _CACHE_SIZE = 8
+_LOCK = threading.Lock()
 
 
 def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, build: bool = True
@@ -289,14 +291,16 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool
     """
     W = np.ascontiguousarray(W, dtype=float)
     key = (id(rough), W.tobytes(), bool(metric_flux))
-    hit = _CACHE.get(key)
-    if hit is not None and hit[0] is rough:
-        _CACHE.move_to_end(key)
-        return hit[1]
+    with _LOCK:
+        hit = _CACHE.get(key)
+        if hit is not None and hit[0] is rough:
+            _CACHE.move_to_end(key)
+            return hit[1]
     if not build:
         return None
     table = _build(rough, W, bool(metric_flux))
-    _CACHE[key] = (rough, table)  # the measure is kept alive, so its id stays unique
-    while len(_CACHE) > _CACHE_SIZE:
-        _CACHE.popitem(last=False)
+    with _LOCK:
+        _CACHE[key] = (rough, table)  # the measure is kept alive, so its id stays unique
+        while len(_CACHE) > _CACHE_SIZE:
+            _CACHE.popitem(last=False)
     return table
