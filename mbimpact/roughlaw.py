@@ -287,6 +287,8 @@ class RoughLaw(ImpactLaw):
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
         """Double the node count on the rows that have not converged to ``rtol``."""
         nodes = self.roughness.initial_nodes
+        if 2 * nodes > self.max_nodes:  # the first pair must stay within max_nodes
+            nodes = max(1, self.max_nodes // 2)
         (P, fine), (_, facets) = self._average_levels(W, U, (nodes, 2 * nodes), rule)
         err = np.full(len(U), np.inf)
         todo = np.arange(len(U))
