@@ -277,33 +277,38 @@ def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]
     return rows
 
 
+def _table(title: str, header: str, lines: list[str]) -> list[str]:
+    """A markdown section: title, header row with its separator, then the lines."""
+    cols = header.count("|") - 1
+    return ["", title, "", header, "|" + "---|" * cols, *lines]
+
+
 def format_report(rows: list[BenchRow]) -> str:
     """Markdown tables: accuracy (error, µs per impact), overhead ratios, batch throughput."""
-    out = [f"Machine: {machine_summary()}", ""]
-    out += ["## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
-            "exact-arc quadrature, graded for the near-singular posture)", "",
-            "| case | method | nodes/samples | rel. error | µs/impact |", "|---|---|---|---|---|"]
-    for r in rows:
-        if r.part == "accuracy":
-            param = "" if r.param == 0 else f"{r.param:g}"
-            out.append(f"| {r.case} | {r.method} | {param} | {r.error:.2e} | {r.seconds * 1e6:.1f} |")
-    out += ["", "## Per-call cost against Pinocchio (same q, v, one run)", "",
-            "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |", "|---|---|---|---|---|"]
-    for r in rows:
-        if r.part == "overhead":
-            out.append(f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |")
-    out += ["", "## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)", "",
-            "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |", "|---|---|---|---|---|---|"]
-    for r in rows:
-        if r.part == "compliant":
-            m = "" if r.param == 0 else f"{r.param:g}"
-            out.append(f"| {r.case} | {r.method} | {m} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |")
-    out += ["", "## Batch throughput (apply_batch, one configuration)", "",
-            "| robot | law | nodes | impacts/s | µs/impact |", "|---|---|---|---|---|"]
-    for r in rows:
-        if r.part == "batch":
-            param = "" if r.param == 0 else f"{r.param:g}"
-            out.append(f"| {r.case} | {r.method} | {param} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |")
+    def part(name: str) -> list[BenchRow]:
+        return [r for r in rows if r.part == name]
+
+    def blank0(x: float) -> str:
+        return "" if x == 0 else f"{x:g}"
+
+    out = [f"Machine: {machine_summary()}"]
+    out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
+                  "exact-arc quadrature, graded for the near-singular posture)",
+                  "| case | method | nodes/samples | rel. error | µs/impact |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
+                   for r in part("accuracy")])
+    out += _table("## Per-call cost against Pinocchio (same q, v, one run)",
+                  "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |",
+                  [f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |"
+                   for r in part("overhead")])
+    out += _table("## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)",
+                  "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |"
+                   for r in part("compliant")])
+    out += _table("## Batch throughput (apply_batch, one configuration)",
+                  "| robot | law | nodes | impacts/s | µs/impact |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
+                   for r in part("batch")])
     return "\n".join(out)
 
 

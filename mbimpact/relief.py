@@ -164,13 +164,18 @@ class HeightMap(Roughness):
     def __repr__(self) -> str:
         return f"HeightMap({self.z.shape[0]}×{self.z.shape[1]}, dx={self.dx:g}, dy={self.dy:g}, shadowing={self.shadowing})"
 
-    def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Height of the triangulated surface at (x, y), clipped to the map."""
+    def _cell(self, x: NDArray[np.float64], y: NDArray[np.float64]
+              ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Grid cell (i, j) of (x, y), clipped to the map, and the position (a, b) in it."""
         nx, ny = self.z.shape
         fx = np.clip(x / self.dx, 0.0, nx - 1 - 1e-12)
         fy = np.clip(y / self.dy, 0.0, ny - 1 - 1e-12)
-        i, j = np.floor(fx).astype(int), np.floor(fy).astype(int)
-        a, b = fx - i, fy - j
+        i, j = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+        return i, j, fx - i, fy - j
+
+    def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Height of the triangulated surface at (x, y), clipped to the map."""
+        i, j, a, b = self._cell(x, y)
         z = self.z
         lower = a >= b  # triangle (00, 10, 11)
         z00, z10, z11, z01 = z[i, j], z[i + 1, j], z[i + 1, j + 1], z[i, j + 1]
@@ -272,12 +277,8 @@ class HeightMap(Roughness):
         length = np.where(seg, frac * (t1 - t0), 0.0)
         # the triangle of each segment, from its midpoint
         ox, oy = S * e[0], S * e[1]
-        mx, my = ox[:, None] + 0.5 * (t0 + t1) * d[0], oy[:, None] + 0.5 * (t0 + t1) * d[1]
-        fx = np.clip(mx / self.dx, 0.0, nx - 1 - 1e-12)
-        fy = np.clip(my / self.dy, 0.0, ny - 1 - 1e-12)
-        i, j = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
-        upper = (fy - j) > (fx - i)
-        tri = i * (ny - 1) + j + upper * (nx - 1) * (ny - 1)
+        i, j, a, b = self._cell(ox[:, None] + 0.5 * (t0 + t1) * d[0], oy[:, None] + 0.5 * (t0 + t1) * d[1])
+        tri = i * (ny - 1) + j + (b > a) * (nx - 1) * (ny - 1)  # triangle (00, 11, 01) above the diagonal
         return np.where(seg, tri, -1), length
 
     def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -215,6 +215,12 @@ class RoughLaw(ImpactLaw):
             out.append((1.0 + self.e) * num / total[:, None])
         return out, sizes
 
+    def _quotient(self, N: NDArray[np.float64], D: NDArray[np.float64], U: NDArray[np.float64], err: float,
+                  nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+        """(2.8) as (1+e) N / D from closed-form integrals N (B, 3), D (B,) of a ring or a table."""
+        self._check_facing(D, U)
+        return (1.0 + self.e) * N / D[:, None], np.full(len(U), err), nodes
+
     def _check_facing(self, total: NDArray[np.float64], U: NDArray[np.float64]) -> None:
         empty = np.flatnonzero(~(total > 0.0))
         if empty.size:
@@ -249,18 +255,14 @@ class RoughLaw(ImpactLaw):
         if self.nodes is None and len(U) >= _RING_ROWS and isinstance(rough, Cone) and rough.alpha > 0.0:
             ring = ring_expansion(rough.alpha, W, self.flux == "metric")
             if ring is not None:
-                N, D = ring.integrals(U)
-                self._check_facing(D, U)
                 # truncation plus the rounding of a sum of `degree` terms
-                err = np.full(len(U), (ring.tail + np.finfo(float).eps) * ring.degree)
-                return (1.0 + self.e) * N / D[:, None], err, 2 * ring.degree + 1
+                bound = (ring.tail + float(np.finfo(float).eps)) * ring.degree
+                return self._quotient(*ring.integrals(U), U, bound, 2 * ring.degree + 1)
         if self.nodes is None and isinstance(rough, IsotropicSlopes) and rough.dim == 3:
             table = tilt_table(rough, W, self.flux == "metric", build=len(U) >= _TABLE_ROWS)
             if table is not None:
-                N, D = table.integrals(U)
-                self._check_facing(D, U)
-                err = np.full(len(U), table.tail + np.finfo(float).eps * table.cheb.shape[0])
-                return (1.0 + self.e) * N / D[:, None], err, 2 * table.degree + 1
+                bound = table.tail + float(np.finfo(float).eps) * table.cheb.shape[0]
+                return self._quotient(*table.integrals(U), U, bound, 2 * table.degree + 1)
         rule = self._graded_rule(W)
         if self.nodes is not None:
             (P, coarse), _ = self._average_levels(W, U, (self.nodes, max(1, self.nodes // 2)), rule)
