@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import functools
 import warnings
-from collections.abc import Callable
 from typing import Literal
 
 import numpy as np
@@ -19,10 +17,9 @@ from .laws import (
     _relative_change,
     _restitution,
 )
-from .metric import eigen_ratio
-from .quadrature import graded_azimuth_rule, ring_minima
+from .metric import eigen_ratio, spread_bound
 from .ring import ring_expansion
-from .roughness import Cone, Roughness
+from .roughness import Cone, Roughness, Rule
 from .slopes import IsotropicSlopes
 from .tilt_table import tilt_table
 
@@ -34,10 +31,10 @@ _RING_ROWS = 32
 # From this many rows on, a spatial isotropic tilt density is averaged by its table in the
 # incidence at fixed W (mbimpact.tilt_table): 0.1–3 s to build, then µs per row.
 _TABLE_ROWS = 1024
+# Rows per adaptive pass of a graded tilt × azimuth rule (memory: ~10⁸ bytes per row at 128 nodes).
+_GRADED_SLOPE_ROWS = 4
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
 _PEAKED = 0.15
-
-_Rule = Callable[[NDArray[np.float64], int], tuple[NDArray[np.float64], NDArray[np.float64]]]
 
 
 class RoughLaw(ImpactLaw):
@@ -86,11 +83,14 @@ class RoughLaw(ImpactLaw):
 
     Notes
     -----
-    For a :class:`Cone` and a nearly singular W (an arm near a singular posture)
-    the kernels of (2.8) peak sharply where mᵀWm is smallest; the adaptive rule is
-    then graded towards those azimuths by a sinh map
-    (:func:`mbimpact.quadrature.graded_azimuth_rule`) and converges with tens of
-    nodes where a uniform rule needs 10⁵.
+    For a nearly singular W (an arm near a singular posture) the kernels of (2.8)
+    peak sharply where mᵀWm is smallest. The adaptive rule is then graded towards
+    the peaks by sinh maps (:meth:`Roughness.graded_rule`): for a :class:`Cone`
+    in azimuth (:func:`mbimpact.quadrature.graded_azimuth_rule`), converging with
+    tens of nodes where a uniform rule needs 10⁵; for :class:`IsotropicSlopes` and
+    :class:`GaussianSlopes` in tilt too (:func:`mbimpact.quadrature.graded_tilt_rule`
+    towards :func:`mbimpact.quadrature.peak_tilts`), where the plain product rule
+    is off by O(1). Such calls cost 10–150 ms per velocity (spatial).
 
     Batches of at least 32 velocities on a :class:`Cone` (adaptive quadrature,
     ``nodes=None``) use the cone's ring expansion at the fixed W
@@ -177,14 +177,14 @@ class RoughLaw(ImpactLaw):
         flux = np.where(facing, -s / np.sqrt(safe_q) if self.flux == "metric" else -s, 0.0)
         return p * flux, np.where(facing, -s / safe_q, 0.0), m
 
-    def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int, rule: _Rule | None = None
+    def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int, rule: Rule | None = None
                  ) -> tuple[NDArray[np.float64], int]:
         """(2.8) with the rule of ``nodes`` nodes: contact impulses (B, d), local frame, and the facet count."""
         (P,), (facets,) = self._average_levels(W, U, (nodes,), rule)
         return P, facets
 
     def _average_levels(
-        self, W: NDArray[np.float64], U: NDArray[np.float64], levels: tuple[int, ...], rule: _Rule | None = None
+        self, W: NDArray[np.float64], U: NDArray[np.float64], levels: tuple[int, ...], rule: Rule | None = None
     ) -> tuple[list[NDArray[np.float64]], list[int]]:
         """:meth:`_average` for several node counts in one pass over their concatenated nodes
         (the per-call cost of a single impact is mostly the number of array operations).
@@ -269,25 +269,50 @@ class RoughLaw(ImpactLaw):
             return P, _relative_change(P, coarse, W), self.nodes
         return self._adaptive(W, U, rule)
 
-    def _graded_rule(self, W: NDArray[np.float64]) -> _Rule | None:
-        """For a :class:`Cone` and a nearly singular W: the rule graded towards the peaks
-        of the kernels (:func:`mbimpact.quadrature.graded_azimuth_rule`), else None."""
-        rough = self.roughness
-        if not isinstance(rough, Cone) or rough.alpha == 0.0 or W.shape != (3, 3):
+    def _graded_rule(self, W: NDArray[np.float64]) -> Rule | None:
+        """For a nearly singular W: the measure's rule graded towards the peaks of the
+        kernels (:meth:`Roughness.graded_rule`), else None."""
+        # q_min ≥ λ_min and q'' ≤ 8 λ_max on a ring, so every peak width ε = sqrt(2 q_min / q'')
+        # is ≥ sqrt(λ_min / 4 λ_max): a cheap closed-form check rules out ordinary W
+        if W.shape == (2, 2):  # det / tr² ≤ λ₁ / λ₂, the square of the width of the peak
+            if spread_bound(W) > _PEAKED**2:
+                return None
+        elif W.shape != (3, 3) or eigen_ratio(W) > 4 * _PEAKED**2:
             return None
-        # q_min ≥ λ_min and q'' ≤ 8 λ_max on the ring, so ε = sqrt(2 q_min / q'') ≥ sqrt(λ_min / 4 λ_max)
-        if eigen_ratio(W) > 4 * _PEAKED**2:
-            return None
-        minima = ring_minima(rough.alpha, W)
-        # ε ≲ 1e-7 means q_min / q_max ≲ 1e-14: facets the mechanism cannot push (skipped as
-        # degenerate), around which the flux weight is not integrable; grading cannot help
-        if not minima[1].size or not 1e-7 < minima[1].min() < _PEAKED:
-            return None
-        return functools.partial(graded_azimuth_rule, rough.alpha, minima)
+        return self.roughness.graded_rule(W, _PEAKED)
 
-    def _adaptive(self, W: NDArray[np.float64], U: NDArray[np.float64], rule: _Rule | None = None
+    def _adaptive(self, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None = None
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-        """Double the node count on the rows that have not converged to ``rtol``."""
+        """Double the node count on the rows that have not converged to ``rtol``; warn once
+        if rounding or ``max_nodes`` stopped some row short of it."""
+        # a graded tilt × azimuth rule puts ~60 n² facets on a row (10⁶ at n = 128): a few rows at a time
+        rows = _GRADED_SLOPE_ROWS if rule is not None and isinstance(self.roughness, IsotropicSlopes) else len(U)
+        P, err = np.empty_like(U), np.empty(len(U))
+        nodes, limited, capped = 0, False, False
+        for start in range(0, len(U), rows):
+            block = slice(start, start + rows)
+            P[block], err[block], nodes_b, limited_b, capped_b = self._refine(W, U[block], rule)
+            nodes, limited, capped = max(nodes, nodes_b), limited or limited_b, capped or capped_b
+        if capped:
+            warnings.warn(
+                f"{self!r}: quadrature reached {nodes} nodes with estimated relative error "
+                f"{err.max():.3g} > rtol={self.rtol:g}",
+                AccuracyWarning,
+                stacklevel=5,
+            )
+        elif limited:
+            warnings.warn(
+                f"{self!r}: converged to rounding at relative error {err.max():.3g} > rtol={self.rtol:g}; "
+                "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach",
+                AccuracyWarning,
+                stacklevel=5,
+            )
+        return P, err, nodes
+
+    def _refine(self, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, bool]:
+        """:meth:`_adaptive` on one block of rows: impulses, error estimates, final node count,
+        and whether rounding (``limited``) or ``max_nodes`` (``capped``) ended the refinement."""
         nodes = self.roughness.initial_nodes
         if 2 * nodes > self.max_nodes:  # the first pair must stay within max_nodes
             nodes = max(1, self.max_nodes // 2)
@@ -317,19 +342,6 @@ class RoughLaw(ImpactLaw):
                 limited = limited or bool(stalled.any())
                 todo = todo[unconverged & ~stalled]
             if todo.size == 0:
-                if limited:
-                    warnings.warn(
-                        f"{self!r}: converged to rounding at relative error {err.max():.3g} > rtol={self.rtol:g}; "
-                        "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach",
-                        AccuracyWarning,
-                        stacklevel=5,
-                    )
-                return P, err, nodes
+                return P, err, nodes, limited, False
             if nodes * 2 > self.max_nodes:
-                warnings.warn(
-                    f"{self!r}: quadrature reached {nodes} nodes with estimated relative error "
-                    f"{err.max():.3g} > rtol={self.rtol:g}",
-                    AccuracyWarning,
-                    stacklevel=5,
-                )
-                return P, err, nodes
+                return P, err, nodes, limited, True

@@ -11,8 +11,10 @@ of ``u`` only, never on the mass matrix, so a rule can follow it exactly.
 
 from __future__ import annotations
 
+import functools
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -21,9 +23,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
 from .errors import ParameterError, RoughnessError
-from .quadrature import azimuth_rule
+from .quadrature import azimuth_rule, graded_azimuth_rule, ring_minima
 
 __all__ = ["Roughness", "FiniteRoughness", "Smooth", "Sawtooth", "Cone", "Facets", "check_normals", "check_weights"]
+
+# A quadrature rule (U (B, d), nodes) -> normals, weights, as Roughness.rule_batch.
+Rule = Callable[[NDArray[np.float64], int], tuple[NDArray[np.float64], NDArray[np.float64]]]
 
 # Tolerance on |m| = 1 for user-given facet normals.
 _UNIT_TOL = 1e-9
@@ -74,6 +79,24 @@ class Roughness(ABC):
         """:meth:`rule_batch` for one velocity ``u`` (d,): normals (K, d), weights (K,)."""
         m, w = self.rule_batch(u[None, :], nodes)
         return (m if m.ndim == 2 else m[0]), (w if w.ndim == 1 else w[0])
+
+    def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
+        """A rule graded towards the peaks of the kernels of (2.8), for a nearly singular W.
+
+        Parameters
+        ----------
+        W : ndarray, shape (d, d)
+            Delassus matrix in the local frame.
+        peaked : float
+            Peaks narrower than this (radians) call for grading.
+
+        Returns
+        -------
+        callable or None
+            ``rule(U, nodes)`` with the signature of :meth:`rule_batch`, or None
+            when the measure's own rule serves (the default).
+        """
+        return None
 
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         """``count`` facet normals drawn from P (local frame), shape (count, d).
@@ -172,6 +195,16 @@ class Cone(Roughness):
             return np.array([[0.0, 0.0, 1.0]]), np.ones(1)
         B = U.shape[0]
         return azimuth_rule(np.full((B, 1), self.alpha), np.ones((B, 1)), U, nodes)
+
+    def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
+        if self.alpha == 0.0:
+            return None
+        minima = ring_minima(self.alpha, W)
+        # ε ≲ 1e-7 means q_min / q_max ≲ 1e-14: facets the mechanism cannot push (skipped as
+        # degenerate), around which the flux weight is not integrable; grading cannot help
+        if not minima[1].size or not 1e-7 < minima[1].min() < peaked:
+            return None
+        return functools.partial(graded_azimuth_rule, self.alpha, minima)
 
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         phi = rng.uniform(0.0, 2.0 * math.pi, count)

@@ -7,11 +7,13 @@ given by a density of α over the facets' *true* area (THEORY §3).
 Averaging is a product rule: Gauss–Legendre in α, split where the cone of tilt α
 begins to be cut by G* (α* = atan(|u_n| / |u_t|)), times the exact facing arc of
 :func:`mbimpact.quadrature.azimuth_rule` in azimuth. Both parts converge
-geometrically for smooth densities.
+geometrically for smooth densities. For a nearly singular W both are graded
+towards the peaks of 1/mᵀWm (:meth:`IsotropicSlopes.graded_rule`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -23,8 +25,16 @@ from scipy import integrate
 
 from ._validate import as_scalar
 from .errors import ParameterError, RoughnessError
-from .quadrature import azimuth_rule, gauss_legendre, tilt_segments
-from .roughness import Roughness
+from .quadrature import (
+    azimuth_rule,
+    gauss_legendre,
+    graded_azimuth_rule,
+    graded_tilt_rule,
+    peak_tilts,
+    ring_minima_many,
+    tilt_segments,
+)
+from .roughness import Roughness, Rule
 
 __all__ = ["IsotropicSlopes", "GaussianSlopes"]
 
@@ -102,6 +112,42 @@ class IsotropicSlopes(Roughness):
         normals = np.stack([sgn * np.sin(tilt), np.cos(tilt)], axis=-1)
         return normals, weights
 
+    def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
+        if self.dim == 2:
+            return functools.partial(self._graded_planar, W) if _planar_peak(W)[2] < peaked else None
+        if not np.isfinite(peak_tilts(W, np.array([[0.0, 0.0, -1.0]]), peaked)[1][0, :2]).any():
+            return None
+        return functools.partial(self._graded_spatial, W, peaked)
+
+    def _graded_spatial(self, W: NDArray[np.float64], peaked: float, U: NDArray[np.float64], nodes: int
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Tilt × azimuth rule graded in both: tilts towards :func:`~mbimpact.quadrature.peak_tilts`,
+        each ring's azimuths towards its own minima of mᵀWm."""
+        lo, hi = self.support
+        split = np.arctan2(np.abs(U[:, -1]), np.linalg.norm(U[:, :-1], axis=1))
+        tilt, dtilt = graded_tilt_rule(lo, hi, split, peak_tilts(W, U, peaked), nodes)
+        normals, w_az = graded_azimuth_rule(tilt, ring_minima_many(tilt, W), U, nodes)
+        B, L = tilt.shape
+        weights = w_az.reshape(B, L, -1) * (self._density(tilt) * dtilt)[..., None]
+        return normals, weights.reshape(B, -1)
+
+    def _graded_planar(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The planar rule of :meth:`rule_batch` with both sides graded towards the tilt where
+        m ∥ w₁ (the least eigenvector of W) and its mirror image −α₁ on the other side."""
+        lo, hi = self.support
+        alpha1, sigma1, eps1 = _planar_peak(W)
+        B = U.shape[0]
+        side = np.where(U[:, 0] >= 0, 1.0, -1.0)  # sign of u_t: tilting "with" the motion
+        top = np.clip(np.arctan2(np.abs(U[:, 1]), np.abs(U[:, 0])), lo, hi)  # α*: that side is met below it
+        parts = []
+        for sgn, upper in ((-side, np.full(B, hi)), (side, top)):
+            peak = (np.where(sgn == sigma1, alpha1, -alpha1)[:, None], np.full((B, 1), eps1))
+            tilt, dtilt = graded_tilt_rule(lo, upper, upper, peak, nodes)
+            parts.append((np.repeat(sgn[:, None], tilt.shape[1], axis=1), tilt, dtilt * self._density(tilt) / 2))
+        sgn, tilt, weights = (np.concatenate(x, axis=1) for x in zip(*parts))
+        return np.stack([sgn * np.sin(tilt), np.cos(tilt)], axis=-1), weights
+
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         lo, hi = self.support
         grid = np.linspace(lo, hi, _CDF_POINTS)
@@ -119,6 +165,15 @@ class IsotropicSlopes(Roughness):
         lo, hi = self.support
         return integrate.quad(lambda a: float(f(np.array([a]))[0] * self._density(np.array([a]))[0]),
                               lo, hi, limit=200, epsabs=0, epsrel=1e-12)[0]
+
+
+def _planar_peak(W: NDArray[np.float64]) -> tuple[float, float, float]:
+    """Where 1/mᵀWm peaks on the planar facets m = (σ sin α, cos α): the tilt α₁ and side σ₁
+    of the least eigenvector w₁ of the 2 × 2 W, and the width sqrt(λ₁ / λ₂)."""
+    lam, vec = np.linalg.eigh(W)
+    w1 = vec[:, 0] if vec[1, 0] >= 0 else -vec[:, 0]
+    width = math.sqrt(max(float(lam[0]), 0.0) / max(float(lam[1]), 1e-300))
+    return math.atan2(abs(float(w1[0])), float(w1[1])), (1.0 if w1[0] >= 0 else -1.0), width
 
 
 def _gaussian_pdf(sigma: float, dim: int) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:

@@ -9,10 +9,17 @@ import pytest
 from scipy import integrate
 
 import mbimpact as mbi
-from mbimpact.quadrature import graded_azimuth_rule, ring_minima
+from mbimpact.quadrature import (
+    gauss_legendre,
+    graded_azimuth_rule,
+    graded_tilt_rule,
+    peak_tilts,
+    ring_minima,
+    ring_minima_many,
+)
 
 from conftest import UPRIGHT_UR5 as UPRIGHT
-from conftest import mechanism
+from conftest import mechanism, upright_ur5_delassus
 
 
 def upright_ur5():
@@ -112,3 +119,129 @@ def test_graded_rule_integrates_the_measure_of_the_facing_arc(beta):
     assert np.all(m[0] @ U[0] <= 1e-14)
     if facing == 1.0:
         assert abs(w[0] @ (m[0, :, 0] * m[0, :, 1])) < 1e-14
+
+
+# ---------------------------------------------------------------- tilt densities
+
+
+def composite_slopes_reference(measure, e, W, u, panels=3000):
+    """(2.8) for a tilt density by brute force in the tilt: uniform Gauss–Legendre panels,
+    no grading, no hints; each ring by the graded azimuth rule (checked against scipy above)."""
+    lo, hi = measure.support
+    x, gw = gauss_legendre(8)
+    edges = np.linspace(lo, hi, panels + 1)
+    tilt = (edges[:-1, None] + np.diff(edges)[:, None] * (x + 1) / 2).ravel()[None, :]
+    dtilt = (np.diff(edges)[:, None] / 2 * gw).ravel() * measure._density(tilt[0])
+    m, w = graded_azimuth_rule(tilt, ring_minima_many(tilt, W), u[None], 48)
+    m, w = m[0], (w[0].reshape(tilt.shape[1], -1) * dtilt[:, None]).ravel()
+    s, q = m @ u, np.einsum("ki,ij,kj->k", m, W, m)
+    f = (s < 0) & (w > 0)
+    return (1 + e) * ((w[f] * s[f] ** 2 / q[f] ** 1.5) @ m[f]) / (w[f] @ (-s[f] / np.sqrt(q[f])))
+
+
+def w_error(P, ref, W):
+    """Relative error of the contact-velocity change W P (P itself is ill-determined along null W)."""
+    return np.linalg.norm((P - ref) @ W) / np.linalg.norm(ref @ W)
+
+
+@pytest.mark.parametrize("u", [[1.0, 0.3, -0.2], [0.0, 1.0, -0.3]], ids=["oblique", "along-valley"])
+def test_gaussian_slopes_at_a_near_singular_posture(u):
+    """W spans 1e7: 1/mᵀWm has a valley across the sphere and a point peak; tilt and azimuth are graded."""
+    W = upright_ur5_delassus()
+    u = np.array(u) / np.linalg.norm(u)
+    measure = mbi.GaussianSlopes(0.3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.AccuracyWarning)  # rounding-limited near 1e-11: it says so
+        P, est, nodes = mbi.RoughLaw(measure, 0.5).contact_impulses(W, u[None])
+        fine, _, _ = mbi.RoughLaw(measure, 0.5, nodes=256).contact_impulses(W, u[None])
+    assert nodes <= 128
+    assert w_error(P[0], composite_slopes_reference(measure, 0.5, W, u), W) < 1e-9
+    assert w_error(P[0], fine[0], W) <= 10 * est[0] + 1e-10  # the estimate is honest
+    # what the grading buys: the plain tilt × azimuth product rule is off by O(1) at 256 nodes
+    plain = mbi.RoughLaw(measure, 0.5)._average(W, u[None], 256)[0][0]
+    assert w_error(plain, fine[0], W) > 1e-3
+
+
+def test_ring_minima_many_matches_the_scalar_search(rng):
+    for _ in range(20):
+        B = rng.normal(size=(3, 3))
+        W = B @ np.diag(10.0 ** rng.uniform(-8, 0, 3)) @ B.T
+        alpha = rng.uniform(0.01, 1.5, 7)
+        phi, eps = ring_minima_many(alpha, W)
+        for a, p, e in zip(alpha, phi, eps):
+            ref_p, ref_e = ring_minima(a, W)
+            got = p[np.isfinite(p)]
+            assert len(got) == len(ref_p)
+            for x, w in zip(ref_p, ref_e):
+                j = np.argmin(np.abs(np.angle(np.exp(1j * (got - x)))))
+                assert abs(np.angle(np.exp(1j * (got[j] - x)))) < 1e-9
+                assert e[np.isfinite(p)][j] <= w * (1 + 1e-9)  # capped by the quartic width, never wider
+
+
+@pytest.mark.parametrize("width", [1e-1, 1e-4, 1e-8])
+@pytest.mark.parametrize("centre", [0.05, 0.3, 0.6, 1.2])
+def test_graded_tilt_rule_resolves_a_narrow_peak(width, centre):
+    """∫ ε / ((α − c)² + ε²) dα over [0, 1], a Lorentzian at a hinted tilt (also at α* = 0.3 and
+    outside), to 1e-13 with 64 nodes per half-piece — 1e-10 for ε = 1e-8, where the rounding of α
+    itself (1e-16 beside ε) limits; and (α − α*)^{3/2} above α* to rounding."""
+    tilt, dtilt = graded_tilt_rule(0.0, 1.0, np.array([0.3]), (np.array([centre]), np.array([width])), 64)
+    exact = math.atan2(width, width**2 + (1.0 - centre) * (0.0 - centre))  # atan((1−c)/ε) − atan(−c/ε)
+    got = float(dtilt[0] @ (width / ((tilt[0] - centre) ** 2 + width**2)))
+    assert got == pytest.approx(exact, rel=1e-10 if width < 1e-6 else 1e-13)
+    assert dtilt.sum() == pytest.approx(1.0, rel=1e-14)
+    onset = np.where(tilt > 0.3, np.abs(tilt - 0.3) ** 1.5, 0.0)[0]
+    assert dtilt[0] @ onset == pytest.approx(0.7**2.5 / 2.5, rel=1e-13)
+    assert np.all((tilt >= 0.0) & (tilt <= 1.0))
+
+
+def test_peak_tilts_of_a_rank_one_delassus_matrix():
+    """W = λ e eᵀ + δ I: a valley e ⊥ m, whose highest point has tilt asin|e_z|; it meets the
+    boundary of G* at m ∥ u × e."""
+    e = np.array([0.6, 0.0, 0.8])
+    W = np.outer(e, e) + 1e-8 * np.eye(3)
+    u = np.array([0.3, 0.4, -0.866])
+    tilt, eps = peak_tilts(W, u[None], 0.15)
+    assert tilt[0, 1] == pytest.approx(math.asin(0.8), rel=1e-12)
+    p = np.cross(u, e)
+    assert tilt[0, 2] == pytest.approx(math.acos(abs(p[2]) / np.linalg.norm(p)), rel=1e-12)
+    np.testing.assert_allclose(eps[0, 1:], 1e-4, rtol=1e-6)  # sqrt(δ / λ)
+
+
+def planar_slopes_reference(measure, e, W, u):
+    """(2.8) for a planar tilt density by scipy.quad on each side, told where the kernels peak."""
+    lo, hi = measure.support
+    vec = np.linalg.eigh(W)[1]
+    w1 = vec[:, 0] if vec[1, 0] >= 0 else -vec[:, 0]
+    points = [p for p in (abs(math.atan2(w1[0], w1[1])), math.atan2(abs(u[1]), abs(u[0]))) if lo < p < hi]
+    total = np.zeros(3)
+    for side in (-1.0, 1.0):
+        def kernel(a, j, side=side):
+            m = np.array([side * math.sin(a), math.cos(a)])
+            su, q = m @ u, m @ W @ m
+            if su >= 0:
+                return 0.0
+            return (su * su * m[j] / q**1.5 if j < 2 else -su / math.sqrt(q)) * measure._density(np.array([a]))[0]
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", integrate.IntegrationWarning)  # roundoff near 1e-9: cond(W) = 1e8
+            total += [integrate.quad(kernel, lo, hi, args=(j,), points=points, limit=500, epsabs=0,
+                                     epsrel=1e-13)[0] for j in range(3)]
+    return (1 + e) * total[:2] / total[2]
+
+
+@pytest.mark.parametrize("theta", [1.0, -1.0, 2.5])
+@pytest.mark.parametrize("u", [[0.5, -1.0], [-0.3, -1.0]])
+def test_planar_gaussian_slopes_with_a_nearly_singular_delassus_matrix(theta, u):
+    """W = R diag(1e-8, 1) Rᵀ: 1/mᵀWm peaks (width 1e-4) at the tilt of the least eigenvector."""
+    R = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    W = R @ np.diag([1e-8, 1.0]) @ R.T
+    u = np.array(u) / np.linalg.norm(u)
+    measure = mbi.GaussianSlopes(0.3, dim=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.AccuracyWarning)  # rounding, amplified by cond(W) = 1e8: it says so
+        P = mbi.RoughLaw(measure, 0.5).contact_impulses(W, u[None])[0]
+    ref = planar_slopes_reference(measure, 0.5, W, u)
+    # the rule converges geometrically; what is left is rounding amplified by |W||P|/|WP| ~ 1e6
+    assert w_error(P[0], ref, W) < 1e-7
+    plain = mbi.RoughLaw(measure, 0.5)._average(W, u[None], 256)[0][0]
+    assert w_error(plain, ref, W) > 1e3 * w_error(P[0], ref, W)
