@@ -8,11 +8,13 @@ Every law shares one pipeline (THEORY §5):
 
 Only step 2 differs between laws (:class:`NewtonLaw` here, :class:`RoughLaw`
 in :mod:`mbimpact.roughlaw`, :class:`CoulombLaw` in :mod:`mbimpact.coulomb`), and
-it is written once for a batch of velocities (rows); a single impact is a batch of one.
+it is written once for a batch of velocities (rows); a single impact is a batch of one
+(with scalar checks around it, and shortcuts where one velocity allows them).
 """
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING
 
@@ -162,8 +164,19 @@ class ImpactLaw(ABC):
         self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], float, int]:
         """:meth:`impulses_for` for one contact velocity ``u`` (d,): P (d,), error estimate, nodes."""
-        P, err, nodes = self.impulses_for(metric, u[None, :], R)
-        return P[0], float(err[0]), nodes
+        # the same steps in scalar checks and (d,) products: a single impact is called in loops
+        W, n0 = metric.W, R[:, -1]
+        if (self.dim is not None and self.dim != metric.d) or not float(u @ n0) < 0.0 \
+                or not float(n0 @ W @ n0) > _DEGENERATE * float(W.trace()):
+            P, err, nodes = self.impulses_for(metric, u[None, :], R)  # raises the named error
+            return P[0], float(err[0]), nodes
+        speed = math.sqrt(float(u @ u))
+        P, err, nodes = self.contact_impulses(R.T @ W @ R, (u @ R)[None, :] / speed)
+        P = R @ P[0]
+        proj = metric.range_projector
+        if proj is not None:
+            P = proj @ P  # the minimum-norm impulse, as in impulses_for
+        return P * speed, float(err[0]), nodes
 
     # ------------------------------------------------------------------ batch
     def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:

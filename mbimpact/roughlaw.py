@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Literal
 
@@ -9,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ._validate import as_scalar
+from .cone_pair import cone_pair
 from .errors import NoFacingFacetError, ParameterError, RoughnessError
 from .laws import (
     _DEGENERATE,
@@ -31,6 +33,7 @@ _RING_ROWS = 32
 # From this many rows on, a spatial isotropic tilt density is averaged by its table in the
 # incidence at fixed W (mbimpact.tilt_table): 0.1–3 s to build, then µs per row.
 _TABLE_ROWS = 1024
+_EPS = float(np.finfo(float).eps)
 # Rows per adaptive pass of a graded tilt × azimuth rule (memory: ~10⁸ bytes per row at 128 nodes).
 _GRADED_SLOPE_ROWS = 4
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
@@ -91,6 +94,11 @@ class RoughLaw(ImpactLaw):
     :class:`GaussianSlopes` in tilt too (:func:`mbimpact.quadrature.graded_tilt_rule`
     towards :func:`mbimpact.quadrature.peak_tilts`), where the plain product rule
     is off by O(1). Such calls cost 10–150 ms per velocity (spatial).
+
+    A single velocity on a :class:`Cone` (W not nearly singular) takes the first
+    pass of the adaptive rule, 32 and 64 nodes, through :mod:`mbimpact.cone_pair`:
+    the same nodes in a handful of array operations; the general route takes
+    over if that pass does not settle it.
 
     Batches of at least 32 velocities on a :class:`Cone` (adaptive quadrature,
     ``nodes=None``) use the cone's ring expansion at the fixed W
@@ -256,18 +264,40 @@ class RoughLaw(ImpactLaw):
             ring = ring_expansion(rough.alpha, W, self.flux == "metric")
             if ring is not None:
                 # truncation plus the rounding of a sum of `degree` terms
-                bound = (ring.tail + float(np.finfo(float).eps)) * ring.degree
+                bound = (ring.tail + _EPS) * ring.degree
                 return self._quotient(*ring.integrals(U), U, bound, 2 * ring.degree + 1)
         if self.nodes is None and isinstance(rough, IsotropicSlopes) and rough.dim == 3:
             table = tilt_table(rough, W, self.flux == "metric", build=len(U) >= _TABLE_ROWS)
             if table is not None:
-                bound = table.tail + float(np.finfo(float).eps) * table.cheb.shape[0]
+                bound = table.tail + _EPS * table.cheb.shape[0]
                 return self._quotient(*table.integrals(U), U, bound, 2 * table.degree + 1)
         rule = self._graded_rule(W)
+        if rule is None and self.nodes is None and len(U) == 1 and isinstance(rough, Cone) and rough.alpha > 0.0:
+            single = self._cone_single(W, U[0])
+            if single is not None:
+                return single
         if self.nodes is not None:
             (P, coarse), _ = self._average_levels(W, U, (self.nodes, max(1, self.nodes // 2)), rule)
             return P, _relative_change(P, coarse, W), self.nodes
         return self._adaptive(W, U, rule)
+
+    def _cone_single(self, W: NDArray[np.float64], u: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], int] | None:
+        """One velocity on a :class:`Cone`: the first pass of :meth:`_refine` (n and 2n nodes)
+        in a few array operations (:func:`mbimpact.cone_pair.cone_pair`). None when that pass
+        is not conclusive (or meets a degenerate facet, or no facet): the general route then."""
+        n = self.roughness.initial_nodes
+        if 2 * n > self.max_nodes:
+            return None
+        pair = cone_pair(self.roughness.alpha, W, u, n, self.flux == "metric", _DEGENERATE)  # type: ignore[attr-defined]
+        if pair is None or not pair[1].min() > 0.0:
+            return None
+        P = (1.0 + self.e) * pair[0] / pair[1][:, None]
+        (c0, c1, c2), (f0, f1, f2) = (P @ W).tolist()
+        err = math.sqrt(((f0 - c0) ** 2 + (f1 - c1) ** 2 + (f2 - c2) ** 2) / (f0 * f0 + f1 * f1 + f2 * f2))
+        if not err <= max(self.rtol, 100 * _EPS * math.sqrt(2 * n)):  # the floor of _refine
+            return None
+        return P[1:], np.array([err]), 2 * n
 
     def _graded_rule(self, W: NDArray[np.float64]) -> Rule | None:
         """For a nearly singular W: the measure's rule graded towards the peaks of the
@@ -332,7 +362,7 @@ class RoughLaw(ImpactLaw):
             # two results that differ only by rounding (≈ ε √K for K facets) have converged;
             # so have results that stopped improving at that level amplified by |W| |P| / |W P|
             # (W nearly annihilates P: an ill-conditioned contact)
-            floor = 100 * np.finfo(float).eps * np.sqrt(facets)
+            floor = 100 * _EPS * np.sqrt(facets)
             unconverged = err[todo] > max(self.rtol, floor)
             if not unconverged.any():
                 todo = todo[:0]

@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
 from .errors import ParameterError, RoughnessError
-from .quadrature import azimuth_rule, graded_azimuth_rule, ring_minima
+from .quadrature import azimuth_rule, graded_azimuth_rule, ring_minima, ring_width_bound
 
 __all__ = ["Roughness", "FiniteRoughness", "Smooth", "Sawtooth", "Cone", "Facets", "check_normals", "check_weights"]
 
@@ -197,7 +197,7 @@ class Cone(Roughness):
         return azimuth_rule(np.full((B, 1), self.alpha), np.ones((B, 1)), U, nodes)
 
     def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
-        if self.alpha == 0.0:
+        if self.alpha == 0.0 or ring_width_bound(self.alpha, W) >= peaked:
             return None
         minima = ring_minima(self.alpha, W)
         # ε ≲ 1e-7 means q_min / q_max ≲ 1e-14: facets the mechanism cannot push (skipped as
