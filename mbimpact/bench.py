@@ -5,7 +5,8 @@ Three measurements, all taken in the same run so that ratios are meaningful:
 1. ``accuracy`` — error against a converged reference vs wall time per impact
    for each way of averaging (2.8) over a cone of facets: the corrected closed
    form (2.10) where it exists, the exact-arc quadrature at several node counts,
-   uniform azimuth sampling (G* by indicator), and Monte Carlo.
+   uniform azimuth sampling (G* by indicator), and Monte Carlo; then Gaussian
+   slopes at a near-singular posture (graded quadrature vs Monte Carlo).
 2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of
    the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v.
 3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
@@ -93,34 +94,46 @@ def _uniform_facets(alpha: float, count: int) -> Facets:
     return Facets(np.column_stack([s * np.cos(phi), s * np.sin(phi), np.full(count, c)]))
 
 
+def _measurer(rows: list[BenchRow], label: str, A: np.ndarray, J: np.ndarray, v: np.ndarray, ref: np.ndarray,
+              min_time: float) -> Callable[..., None]:
+    """``measure(method, param, law=None, fn=None)``: one accuracy row against ``ref``."""
+    W = J @ np.linalg.solve(A, J.T)
+
+    def measure(method: str, param: float, law: ImpactLaw | None, fn: Callable[[], np.ndarray] | None = None) -> None:
+        call = fn if fn is not None else (lambda: law.apply(A, J, v, [0, 0, 1]).P)  # type: ignore[union-attr]
+        P = call()
+        err = float(np.linalg.norm(W @ (P - ref)) / np.linalg.norm(W @ ref))  # error of Δu = W P
+        rows.append(BenchRow("accuracy", label, method, param, err, per_call(call, min_time)))
+
+    return measure
+
+
+def _incident(beta_deg: float) -> np.ndarray:
+    beta = math.radians(beta_deg)
+    return np.array([math.sin(beta) * math.cos(0.3), math.sin(beta) * math.sin(0.3), -math.cos(beta)])
+
+
 def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
     rows: list[BenchRow] = []
     ur5 = Mechanism.from_robot("ur5")
     q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
     J_ur5 = ur5.point_jacobian(q, "tool0")
     upright = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # elbow straight: W's eigenvalues span 1e7
+    singular = (ur5.mass_matrix(upright), ur5.point_jacobian(upright, "tool0"))
     cases = {"point mass": (np.eye(3), np.eye(3)), "UR5 tool0": (ur5.mass_matrix(q), J_ur5),
-             "UR5 near-singular": (ur5.mass_matrix(upright), ur5.point_jacobian(upright, "tool0"))}
+             "UR5 near-singular": singular}
     betas = (0.0, 30.0, 60.0, 75.0, 85.0) if not quick else (30.0, 75.0)
     gl_nodes = (4, 8, 16, 32, 64)
     uniform = (16, 64, 256, 1024) if not quick else (16, 256)
     mc = (100, 1000, 10_000, 100_000) if not quick else (100, 10_000)
     for case, (A, J) in cases.items():
         for beta_deg in betas:
-            beta = math.radians(beta_deg)
-            u = np.array([math.sin(beta) * math.cos(0.3), math.sin(beta) * math.sin(0.3), -math.cos(beta)])
+            u = _incident(beta_deg)
             v = np.linalg.lstsq(J, u, rcond=None)[0] if case != "point mass" else u
             ref = RoughLaw(Cone(ALPHA), E, nodes=1024).apply(A, J, v, [0, 0, 1]).P
             label = f"{case}, beta={beta_deg:g}"
-            W = J @ np.linalg.solve(A, J.T)
-
-            def measure(method: str, param: float, law: ImpactLaw | None, fn: Callable[[], np.ndarray] | None = None) -> None:
-                call = fn if fn is not None else (lambda: law.apply(A, J, v, [0, 0, 1]).P)  # type: ignore[union-attr]
-                P = call()
-                err = float(np.linalg.norm(W @ (P - ref)) / np.linalg.norm(W @ ref))  # error of Δu = W P
-                rows.append(BenchRow("accuracy", label, method, param, err, per_call(call, min_time)))
-
-            if case == "point mass" and math.tan(beta) * math.tan(ALPHA) < 1:
+            measure = _measurer(rows, label, A, J, v, ref, min_time)
+            if case == "point mass" and math.tan(beta_deg * math.pi / 180) * math.tan(ALPHA) < 1:
                 measure("closed form (2.10)", 0, None, lambda: closed_form_cone(ALPHA, E, v))
             for n in gl_nodes:
                 measure("exact-arc quadrature", n, RoughLaw(Cone(ALPHA), E, nodes=n))
@@ -130,6 +143,20 @@ def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow
             for n in mc:
                 measure("Monte Carlo", n, RoughLaw(Cone(ALPHA), E, method="mc", samples=n, seed=1))
             progress.step(label)
+    # a continuous measure at the hard posture: tilt and azimuth graded towards the peaks of 1/mᵀWm
+    A, J = singular
+    slopes = GaussianSlopes(0.3)
+    for beta_deg in (30.0, 75.0) if not quick else (75.0,):
+        v = np.linalg.lstsq(J, _incident(beta_deg), rcond=None)[0]
+        ref = RoughLaw(slopes, E, nodes=128).apply(A, J, v, [0, 0, 1]).P
+        label = f"UR5 near-singular, GaussianSlopes(0.3), beta={beta_deg:g}"
+        measure = _measurer(rows, label, A, J, v, ref, min_time)
+        for n in (8, 16, 32) if quick else (8, 16, 32, 64):
+            measure("graded tilt x azimuth", n, RoughLaw(slopes, E, nodes=n))
+        measure("adaptive (rtol=1e-12)", 0, RoughLaw(slopes, E))
+        for n in (1000, 100_000) if quick else (1000, 10_000, 100_000):
+            measure("Monte Carlo", n, RoughLaw(slopes, E, method="mc", samples=n, seed=1))
+        progress.step(label)
     return rows
 
 
@@ -263,7 +290,7 @@ def _compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRo
 def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]:
     """Run the three parts; ``quick`` trims grids and repetitions (< 20 s)."""
     min_time = 0.005 if quick else 0.05
-    acc_steps = 6 if quick else 15
+    acc_steps = 7 if quick else 17  # cone cases × incidences, then the graded slopes case
     robots = OVERHEAD_ROBOTS[:2] + OVERHEAD_ROBOTS[2:] if not quick else ("ur5", "solo12")
     batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
     progress = Progress(acc_steps + len(robots) + len(batch_robots) + 1, "bench", enabled=show_progress)
@@ -293,7 +320,8 @@ def format_report(rows: list[BenchRow]) -> str:
 
     out = [f"Machine: {machine_summary()}"]
     out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
-                  "exact-arc quadrature, graded for the near-singular posture)",
+                  "exact-arc quadrature, graded for the near-singular posture; Gaussian slopes against the "
+                  "graded rule with 128 nodes)",
                   "| case | method | nodes/samples | rel. error | µs/impact |",
                   [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
                    for r in part("accuracy")])
@@ -332,11 +360,12 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 5.2))
     acc = [r for r in rows if r.part == "accuracy"]
-    for method in dict.fromkeys(r.method for r in acc):
-        pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if r.method == method]
-        ax1.scatter(*zip(*pts), label=method, s=18)
-    ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of P",
-            title="Accuracy vs time, cone α = 0.4 (all β, all cases)")
+    for method, slopes in dict.fromkeys((r.method, "Slopes" in r.case) for r in acc):
+        pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if (r.method, "Slopes" in r.case) == (method, slopes)]
+        ax1.scatter(*zip(*pts), label=method + (", Gaussian slopes" if slopes else ""), s=18,
+                    marker="x" if slopes else "o")
+    ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of Δu = W P",
+            title="Accuracy vs time: cone α = 0.4 (all β, all cases); x: Gaussian slopes, near-singular UR5")
     ax1.legend(fontsize=8)
     bat = [r for r in rows if r.part == "batch"]
     for name, param in dict.fromkeys((r.method, r.param) for r in bat):

@@ -68,17 +68,7 @@ class ContactMetric:
             raise NotPositiveDefiniteError(
                 f"A is not symmetric: max |A - Aᵀ| = {asym:.3g} (max |A| = {scale:.3g})"
             )
-        try:
-            factor = scipy.linalg.cho_factor(A, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:
-            factor = None
-        if factor is None or not np.all(np.diag(factor[0]) > 0):
-            lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
-            raise NotPositiveDefiniteError(
-                f"A is not positive definite: smallest eigenvalue {lam:.6g} (must be > 0)"
-            )
-        AinvJt = scipy.linalg.cho_solve(factor, J.T, check_finite=False)
-        return cls.from_factorised(A, J, AinvJt)
+        return cls.from_symmetric(A, J)
 
     @classmethod
     def from_symmetric(cls, A: NDArray[np.float64], J: NDArray[np.float64]) -> ContactMetric:
@@ -89,9 +79,11 @@ class ContactMetric:
         try:
             L = np.linalg.cholesky(A)
         except np.linalg.LinAlgError:
-            return cls.from_arrays(A, J)  # raises NotPositiveDefiniteError with the eigenvalue
-        Y = np.linalg.solve(L, J.T)
-        return cls.from_factorised(A, J, np.linalg.solve(L.T, Y))
+            lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
+            raise NotPositiveDefiniteError(
+                f"A is not positive definite: smallest eigenvalue {lam:.6g} (must be > 0)"
+            ) from None
+        return cls.from_factorised(A, J, scipy.linalg.cho_solve((L, True), J.T, check_finite=False))
 
     @classmethod
     def from_factorised(
@@ -153,17 +145,20 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
     """
     f = as_array("frame", frame, np.ndim(frame))
     if f.shape == (d,):
-        norm = float(np.linalg.norm(f))
+        # in floats: a basis is built on every call of ImpactLaw.apply
+        n = f.tolist()
+        norm = math.sqrt(sum(x * x for x in n))
         if norm == 0.0:
             raise ShapeError("the base normal n0 is the zero vector")
-        n0 = f / norm
+        n = [x / norm for x in n]
         if d == 2:
-            return np.array([[n0[1], n0[0]], [-n0[0], n0[1]]])
-        axis = np.eye(3)[int(np.argmin(np.abs(n0)))]
-        t1 = axis - (axis @ n0) * n0
-        t1 /= np.linalg.norm(t1)
-        t2 = np.array([n0[1] * t1[2] - n0[2] * t1[1], n0[2] * t1[0] - n0[0] * t1[2], n0[0] * t1[1] - n0[1] * t1[0]])
-        return np.column_stack([t1, t2, n0])
+            return np.array([[n[1], n[0]], [-n[0], n[1]]])
+        k = min(range(3), key=lambda i: abs(n[i]))  # the world axis least aligned with n0
+        t = [(1.0 if i == k else 0.0) - n[k] * n[i] for i in range(3)]
+        tn = math.sqrt(sum(x * x for x in t))
+        t = [x / tn for x in t]
+        b = [n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]]
+        return np.array([[t[0], b[0], n[0]], [t[1], b[1], n[1]], [t[2], b[2], n[2]]])
     if f.shape == (d, d):
         err = float(np.max(np.abs(f.T @ f - np.eye(d))))
         if err > 1e-9:
