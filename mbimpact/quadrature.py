@@ -111,7 +111,7 @@ def tilt_segments(
 
     Where the cone of tilt α starts to be cut by G* (α* = atan(|u_n| / |u_t|)),
     the averaged integrand behaves like (α − α*)^{3/2}; the substitution
-    α = split + t² on the upper segment makes it analytic in t.
+    α = α* + t² on the upper segment makes it analytic in t (also when α* < lo).
 
     Parameters
     ----------
@@ -128,11 +128,13 @@ def tilt_segments(
     # [lo, a]: plain Gauss–Legendre
     t1 = lo + (a - lo) * (x + 1.0) / 2.0
     w1 = (a - lo) / 2.0 * w
-    # [a, hi]: α = a + t², t ∈ [0, sqrt(hi − a)]
-    tmax = np.sqrt(hi - a)
-    t = tmax * (x + 1.0) / 2.0
-    t2 = a + t * t
-    w2 = tmax / 2.0 * w * 2.0 * t
+    # [a, hi]: α = o + t², from the onset o = min(α*, a): below lo (every ring cut) the
+    # onset lies just outside the support and would otherwise slow the rule down
+    origin = np.minimum(split[:, None], a)
+    t0, tmax = np.sqrt(a - origin), np.sqrt(hi - origin)
+    t = t0 + (tmax - t0) * (x + 1.0) / 2.0
+    t2 = origin + t * t
+    w2 = (tmax - t0) / 2.0 * w * 2.0 * t
     return np.concatenate([t1, t2], axis=1), np.concatenate([w1, w2], axis=1)
 
 

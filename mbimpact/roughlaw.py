@@ -107,7 +107,7 @@ class RoughLaw(ImpactLaw):
     result then reports the number of Fourier terms. Kernels too peaked for a
     series of degree ≤ 1024 (nearly singular W) fall back on the quadrature.
     Batches of at least 1024 velocities on a spatial :class:`IsotropicSlopes` or
-    :class:`GaussianSlopes` whose support starts at α = 0 use a table of (2.8)
+    :class:`GaussianSlopes` use a table of (2.8)
     in the incidence angle at the fixed W (:mod:`mbimpact.tilt_table`, built once
     in 0.1–3 s, then microseconds per velocity) instead of the tilt × azimuth
     product rule.
@@ -269,7 +269,7 @@ class RoughLaw(ImpactLaw):
         if self.nodes is None and isinstance(rough, IsotropicSlopes) and rough.dim == 3:
             table = tilt_table(rough, W, self.flux == "metric", build=len(U) >= _TABLE_ROWS)
             if table is not None:
-                bound = table.tail + _EPS * table.cheb.shape[0]
+                bound = table.tail + _EPS * table.terms
                 return self._quotient(*table.integrals(U), U, bound, 2 * table.degree + 1)
         rule = self._graded_rule(W)
         if rule is None and self.nodes is None and len(U) == 1 and isinstance(rough, Cone) and rough.alpha > 0.0:

@@ -16,8 +16,11 @@ Fourier series Σ_l G_jl(α) e^{ilφ}. The facing set {b cos θ < a} is symmetri
 and likewise D(u) with K'_l. The functions H_jl depend on the incidence β only:
 they are tabulated once per (measure, W) as Chebyshev series in τ, β = β_h + τ²,
 where β_h = π/2 − α_max is the incidence below which no facet is hidden (there the
-α-integral is a closed form in cos β, sin β). Each velocity of a batch then costs
-one Chebyshev evaluation and one Fourier sum in ψ.
+α-integral is a closed form in cos β, sin β). A support that starts at α_min > 0
+adds a second kink at β_l = π/2 − α_min, beyond which every ring is cut; H behaves
+like (β − β_l)^{5/2} there, so a second series in σ, β = β_l + σ², covers
+[β_l, π/2]. Each velocity of a batch then costs one Chebyshev evaluation and one
+Fourier sum in ψ.
 """
 
 from __future__ import annotations
@@ -62,23 +65,28 @@ class TiltTable:
         Incidence below which every facet faces u (π/2 − α_max).
     moments : ndarray, shape (4, 3, 5)
         For β ≤ β_h: ∫ p G_jl (cos²α, sin²α, sin α cos α, cos α, sin α) dα for l = 0, 1, 2.
-    cheb : ndarray, shape (D, 4, L + 1), complex
-        Chebyshev coefficients of H_jl in x ∈ [−1, 1], τ = τ_max (x + 1) / 2.
-    tau_max : float
+    pieces : tuple of (beta0, tau_max, cheb)
+        One series per interval of β between the kinks: β = β₀ + τ², τ ∈ [0, τ_max],
+        and ``cheb`` (D, 4, L + 1), complex, the Chebyshev coefficients of H_jl in
+        x ∈ [−1, 1], τ = τ_max (x + 1) / 2.
     tail : float
         Largest relative coefficient dropped (Fourier in φ, Chebyshev in τ).
     """
 
     beta_h: float
     moments: NDArray[np.complex128]
-    cheb: NDArray[np.complex128]
-    tau_max: float
+    pieces: tuple[tuple[float, float, NDArray[np.complex128]], ...]
     tail: float
 
     @property
     def degree(self) -> int:
         """Fourier degree L in the azimuth."""
-        return self.cheb.shape[2] - 1
+        return self.pieces[0][2].shape[2] - 1
+
+    @property
+    def terms(self) -> int:
+        """Chebyshev terms of the longest series (their rounding adds up)."""
+        return max(cheb.shape[0] for _, _, cheb in self.pieces)
 
     def integrals(self, U: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """N (B, 3) and D (B,) of (2.8) for unit local-frame velocities U (B, 3), U[:, 2] < 0."""
@@ -88,12 +96,15 @@ class TiltTable:
         low = beta <= self.beta_h
         if low.any():
             H[low] = self._full(beta[low])
-        high = np.flatnonzero(~low)
-        if high.size:
-            x = 2.0 * np.sqrt(beta[high] - self.beta_h) / self.tau_max - 1.0
-            T = _chebyshev_basis(np.clip(x, -1.0, 1.0), self.cheb.shape[0])
-            flat = self.cheb.reshape(self.cheb.shape[0], -1)
-            H[high] = ((T @ flat.real) + 1j * (T @ flat.imag)).reshape(-1, 4, self.degree + 1)
+        for k, (beta0, tau_max, cheb) in enumerate(self.pieces):
+            rows = ~low & (beta >= beta0)
+            if k + 1 < len(self.pieces):
+                rows &= beta < self.pieces[k + 1][0]
+            if rows.any():
+                x = 2.0 * np.sqrt(beta[rows] - beta0) / tau_max - 1.0
+                T = _chebyshev_basis(np.clip(x, -1.0, 1.0), cheb.shape[0])
+                flat = cheb.reshape(cheb.shape[0], -1)
+                H[rows] = ((T @ flat.real) + 1j * (T @ flat.imag)).reshape(-1, 4, self.degree + 1)
         # N_j = H_j0 + 2 Re Σ_{l ≥ 1} e^{ilψ} H_jl
         psi = np.arctan2(U[:, 1], U[:, 0])
         total = H[:, :, 0].real.copy()
@@ -157,23 +168,24 @@ def _fourier(alpha: NDArray[np.float64], W: NDArray[np.float64], metric_flux: bo
     return np.moveaxis(np.fft.rfft(g, axis=1) / M, 1, 2)
 
 
-def _tilt_nodes(lo: float, hi: float, a_star: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """n tilt nodes and weights on [lo, α*] (full rings) and n on [α*, hi] (cut rings, α = α* + t²)."""
+def _tilt_nodes(lo: float, hi: float, a_star: float, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """n tilt nodes and weights on [lo, α*] (full rings) and n on [α*, hi] (cut rings,
+    α = α* + t², also when α* < lo: the onset (α − α*)^{3/2} then lies just outside)."""
     x, w = gauss_legendre(n)
     a = min(max(a_star, lo), hi)
     full = lo + (a - lo) * (x + 1) / 2, (a - lo) / 2 * w
-    tmax = math.sqrt(hi - a)
-    t = tmax * (x + 1) / 2
-    cut = a + t * t, tmax / 2 * w * 2 * t
-    return (np.concatenate([full[0], cut[0]]), np.concatenate([full[1], cut[1]]),
-            np.concatenate([np.zeros(x.size, bool), np.ones(x.size, bool)]))
+    origin = min(a_star, a)
+    t0, t1 = math.sqrt(a - origin), math.sqrt(hi - origin)
+    t = t0 + (t1 - t0) * (x + 1) / 2
+    cut = origin + t * t, (t1 - t0) / 2 * w * 2 * t
+    return np.concatenate([full[0], cut[0]]), np.concatenate([full[1], cut[1]])
 
 
 def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M: int, n: int
        ) -> tuple[NDArray[np.complex128], float] | None:
     """H_jl(β) for l = 0 … M/2 by Gauss–Legendre in the tilt (n nodes a side), split at α* = π/2 − β."""
     lo, hi = rough.support
-    alpha, dalpha, _ = _tilt_nodes(lo, hi, math.pi / 2 - beta, n)
+    alpha, dalpha = _tilt_nodes(lo, hi, math.pi / 2 - beta, n)
     G = _fourier(alpha, W, metric_flux, M)
     if G is None:
         return None
@@ -195,8 +207,6 @@ def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux:
 
 def _build(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) -> TiltTable | None:
     lo, hi = rough.support
-    if lo != 0.0:
-        return None  # a second kink at β = π/2 − lo: not tabulated
     # Fourier degree in φ: enough for the sharpest ring of the support
     probe = np.linspace(lo, hi, 65)
     M = 64
@@ -234,22 +244,43 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) ->
             return None
     n_tilt = 2 * n
     beta_h = math.pi / 2 - hi
-    tau_max = math.sqrt(math.pi / 2 - beta_h)
+    ends = [beta_h, math.pi / 2 - lo, math.pi / 2] if lo > 0.0 else [beta_h, math.pi / 2]
+    budget = [_BUDGET]  # kernel samples left for all the pieces
+    pieces, tail = [], 0.0
+    for beta0, beta1 in zip(ends[:-1], ends[1:]):
+        piece = _series(rough, W, metric_flux, M, n_tilt, beta0, math.sqrt(beta1 - beta0), budget)
+        if piece is None:
+            return None
+        pieces.append(piece[0])
+        tail = max(tail, piece[1])
+    # keep the azimuthal terms that matter in any piece, the same L for all
+    scale = max(float(np.abs(cheb).max()) for _, _, cheb in pieces)
+    L = max(2, max(int(np.flatnonzero((np.abs(cheb) > 0.1 * _TAIL * scale).any(axis=(0, 1))).max())
+                   for _, _, cheb in pieces))
+    return TiltTable(beta_h, moments, tuple((b, t, np.ascontiguousarray(c[:, :, : L + 1])) for b, t, c in pieces),
+                     tail)
+
+
+def _series(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M: int, n_tilt: int, beta0: float,
+            tau_max: float, budget: list[float]) -> tuple[tuple[float, float, NDArray[np.complex128]], float] | None:
+    """Chebyshev series of H_jl(β₀ + τ²) on τ ∈ [0, τ_max], refined until its tail is below
+    _TAIL; None past _MAX_CHEBYSHEV or past the kernel-sample ``budget`` (decremented)."""
     # Chebyshev points of the second kind, x_k = cos(πk/N): doubling N reuses every value
     N = 32
     values: dict[int, NDArray[np.complex128]] = {}  # by k at resolution _MAX_CHEBYSHEV
     tail_f = 0.0
     while N <= _MAX_CHEBYSHEV:
-        if (N + 1) * 2 * n_tilt * M > _BUDGET:
-            return None  # too rough a table to be worth building: the product rule takes over
         stride = _MAX_CHEBYSHEV // N
-        for k in range(N + 1):
-            if k * stride not in values:
-                tau = tau_max * (math.cos(math.pi * k / N) + 1) / 2
-                out = _H(beta_h + tau * tau, rough, W, metric_flux, M, n_tilt)
-                if out is None:
-                    return None
-                values[k * stride], tail_f = out[0], max(tail_f, out[1])
+        new = [k for k in range(N + 1) if k * stride not in values]
+        budget[0] -= len(new) * 2 * n_tilt * M
+        if budget[0] < 0:
+            return None  # too rough a table to be worth building: the product rule takes over
+        for k in new:
+            tau = tau_max * (math.cos(math.pi * k / N) + 1) / 2
+            out = _H(beta0 + tau * tau, rough, W, metric_flux, M, n_tilt)
+            if out is None:
+                return None
+            values[k * stride], tail_f = out[0], max(tail_f, out[1])
         V = np.array([values[k * stride] for k in range(N + 1)])  # (N + 1, 4, L + 1)
         # coefficients by the DCT-I on those points (end terms halved)
         idx = np.arange(N + 1)
@@ -263,12 +294,8 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool) ->
         scale = np.abs(coef).max()
         tail_c = float(np.abs(coef[3 * N // 4 :]).max() / scale)
         if tail_c <= _TAIL:
-            # keep the terms that matter: azimuthal degree and Chebyshev degree
-            big = np.abs(coef) > 0.1 * _TAIL * scale
-            L = max(2, int(np.flatnonzero(big.any(axis=(0, 1))).max()))
-            Dk = int(np.flatnonzero(big.any(axis=(1, 2))).max()) + 1
-            return TiltTable(beta_h, moments, np.ascontiguousarray(coef[:Dk, :, : L + 1]), tau_max,
-                             max(tail_f, tail_c))
+            Dk = int(np.flatnonzero((np.abs(coef) > 0.1 * _TAIL * scale).any(axis=(1, 2))).max()) + 1
+            return (beta0, tau_max, coef[:Dk]), max(tail_f, tail_c)
         N *= 2
     return None
 
@@ -284,9 +311,8 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool
                ) -> TiltTable | None:
     """The cached :class:`TiltTable` of a spatial isotropic measure for Delassus matrix ``W`` (3, 3).
 
-    Returns None when the measure's support does not start at α = 0, or when the
-    kernels are too peaked (nearly singular W) for series within the limits: the
-    law then uses its quadrature. With ``build=False`` only a table already built
+    Returns None when the kernels are too peaked (nearly singular W) for series
+    within the limits: the law then uses its quadrature. With ``build=False`` only a table already built
     is returned (a small block of a batch reuses it but does not pay for one).
     """
     W = np.ascontiguousarray(W, dtype=float)

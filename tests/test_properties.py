@@ -74,9 +74,13 @@ def test_independent_of_generalised_coordinates(seed, flux):
     except mbi.NoFacingFacetError:
         return
     res_y = law.apply(T.T @ A @ T, J @ T, np.linalg.solve(T, v), n0)
-    np.testing.assert_allclose(T @ res_y.v_plus, res.v_plus, rtol=1e-7, atol=1e-8 * np.abs(v).max())
-    np.testing.assert_allclose(res_y.P, res.P, rtol=1e-7, atol=1e-9 * np.abs(res.P).max())
-    assert res_y.energy_loss == pytest.approx(res.energy_loss, rel=1e-7, abs=1e-10)
+    # the same W up to the rounding of forming T'AT and JT (amplified by cond(T)² cond(A)),
+    # to which the impact is Lipschitz: the tolerance follows that discrepancy
+    W, W_y = (mbi.ContactMetric.from_arrays(r.A, r.J).W for r in (res, res_y))
+    rtol = max(1e-7, 10 * float(np.abs(W_y - W).max() / np.abs(W).max()))
+    np.testing.assert_allclose(T @ res_y.v_plus, res.v_plus, rtol=rtol, atol=1e-8 * np.abs(v).max())
+    np.testing.assert_allclose(res_y.P, res.P, rtol=rtol, atol=1e-9 * np.abs(res.P).max())
+    assert res_y.energy_loss == pytest.approx(res.energy_loss, rel=rtol, abs=1e-10)
 
 
 @given(seeds)
@@ -162,7 +166,7 @@ def test_5_no_microrelief_is_newton(seed):
         res = mbi.RoughLaw(rough, e).apply(A, J, v, n0)
         np.testing.assert_allclose(res.v_plus, newton.v_plus, rtol=1e-13, atol=1e-13 * np.abs(v).max())
     assert newton.kappa == pytest.approx(e, abs=1e-12)
-    assert newton.mu == 0.0
+    assert newton.mu <= 1e-14  # P = P_n n⁰; what is left is the rounding of n⁰·n⁰ = 1
 
 
 def test_flux_modes_agree_for_point_mass_and_differ_otherwise(rng):

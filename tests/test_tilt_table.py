@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import mbimpact as mbi
+from mbimpact.quadrature import tilt_segments
 from mbimpact.tilt_table import tilt_table
 
 from conftest import mechanism, relative_du, spd, unit_velocities, upright_ur5_delassus
@@ -20,6 +21,8 @@ MEASURES = {
     "gaussian": lambda x: mbi.GaussianSlopes(0.05 + 0.4 * x),
     # a density that does not vanish at the end of its support: the table's τ² substitution
     "bounded": lambda x: mbi.IsotropicSlopes(lambda a: np.sin(2 * a) * (1 + np.cos(3 * a)), support=(0.0, 0.6 + 0.6 * x)),
+    # a band of tilts away from 0: a second series beyond β_l = π/2 − lo
+    "band": lambda x: mbi.IsotropicSlopes(lambda a: 1 + np.sin(3 * a), support=(0.1 + 0.3 * x, 0.7 + 0.5 * x)),
 }
 
 
@@ -75,14 +78,26 @@ def test_batch_on_a_robot_equals_single_impacts():
     assert np.all(batch.energy_loss >= 0.0)
 
 
-def test_no_table_when_the_support_does_not_start_at_zero():
-    """A second kink at β = π/2 − lo is not tabulated; the batch uses the product rule."""
+@pytest.mark.parametrize("flux", ["metric", "contact"])
+def test_a_band_of_tilts_gets_two_series_continuous_across_beta_l(flux):
+    """Support (0.2, 0.7): every ring is cut beyond β_l = π/2 − 0.2, where H has a (β − β_l)^{5/2}
+    onset; the second series in σ, β = β_l + σ², matches the product rule on both sides."""
     rough = mbi.IsotropicSlopes(lambda a: np.ones_like(a), support=(0.2, 0.7))
     W = spd(np.random.default_rng(1), 3, 10.0)
-    assert tilt_table(rough, W, True) is None
-    U = unit_velocities(np.random.default_rng(2), 40)
-    P, _, nodes = mbi.RoughLaw(rough, 0.5).contact_impulses(W, U)
-    assert np.all(np.isfinite(P)) and nodes >= 8
+    table = tilt_table(rough, W, flux == "metric")
+    assert table is not None and [b for b, _, _ in table.pieces] == pytest.approx([math.pi / 2 - 0.7, math.pi / 2 - 0.2])
+    beta_l = math.pi / 2 - 0.2
+    near = np.array([[0.6 * math.sin(b), 0.8 * math.sin(b), -math.cos(b)]
+                     for b in (beta_l - 1e-3, beta_l - 1e-9, beta_l, beta_l + 1e-9, beta_l + 1e-6, beta_l + 1e-3)])
+    U = np.vstack([unit_velocities(np.random.default_rng(2), 1100), near])
+    law = mbi.RoughLaw(rough, 0.5, flux=flux)
+    P, err, nodes = law.contact_impulses(W, U)  # ≥ 1024 rows: the table
+    assert nodes < 200 and np.all(err < 1e-12)
+    rows = np.r_[0:1100:50, 1100:1106]
+    ref, ref_err, _ = law._adaptive(W, U[rows])  # the tilt × azimuth product rule
+    assert np.all(relative_du(P[rows], ref, W) < np.maximum(1e-12, 10 * ref_err))
+    # continuous across β_l: steps of 1e-9 in β change Δu by ~1e-9 on either side
+    assert relative_du(P[1101:1103], P[1102:1104], W).max() < 1e-8
 
 
 def test_no_table_for_a_nearly_singular_w():
@@ -97,3 +112,14 @@ def test_a_small_last_block_reuses_the_table_of_its_batch(monkeypatch):
     res = law.apply_batch(spd(rng, 3, 5.0), I3, unit_velocities(rng, 1150), [0, 0, 1])  # W = A⁻¹
     assert res.nodes < 200 and np.all(res.error_estimate < 1e-12)  # no product rule anywhere
     assert tilt_table(rough, np.diag([1.0, 2.0, 3.0]), True, build=False) is None  # never built: not built now
+
+
+@pytest.mark.parametrize("gap", [0.0, 1e-10, 1e-6, 1e-2])
+def test_tilt_rule_follows_an_onset_just_below_the_support(gap):
+    """α* = lo − gap (every ring cut): (α − α*)^{3/2} on [lo, hi] is integrated to rounding
+    with 16 nodes, as it is when α* lies inside the support."""
+    lo, hi = 0.2, 0.7
+    split = np.array([lo - gap])
+    tilt, dtilt = tilt_segments(lo, hi, split, 16)
+    exact = ((hi - split[0]) ** 2.5 - gap**2.5) / 2.5
+    assert dtilt[0] @ (tilt[0] - split[0]) ** 1.5 == pytest.approx(exact, rel=1e-14)
