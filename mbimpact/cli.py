@@ -58,7 +58,7 @@ def _compare(args: argparse.Namespace) -> int:
         f"rough {type(rough).__name__} alpha={args.alpha:g}": RoughLaw(rough, args.e),
         f"Coulomb mu={args.mu:g} ({args.restitution})": CoulombLaw(args.e, args.mu, args.restitution),
     }
-    contact = PointContact(args.frame, normal=(0.0, 0.0, 1.0), tangent=(1.0, 0.0, 0.0))
+    contact = PointContact(args.frame, normal=np.array([0.0, 0.0, 1.0]), tangent=np.array([1.0, 0.0, 0.0]))
     betas = np.linspace(0.0, args.max_beta, args.steps)
     rows = cmp.compare_laws(mech, q, contact, laws, betas, args.speed)
     shown = {float(b) for b in betas[:: max(1, len(betas) // 8)]} | {float(betas[-1])}

@@ -80,7 +80,7 @@ class CoulombLaw(ImpactLaw):
     # ------------------------------------------------------------------ one impact
     def _stick_ratio(self, W: NDArray[np.float64]) -> NDArray[np.float64]:
         """dP_t / dp_n that keeps u_t = 0: −W_tt⁻¹ W_tn (minimum norm if W_tt is singular)."""
-        return -np.linalg.lstsq(W[:-1, :-1], W[:-1, -1], rcond=1e-12)[0]
+        return np.asarray(-np.linalg.lstsq(W[:-1, :-1], W[:-1, -1], rcond=1e-12)[0], dtype=float)
 
     def _invariant_slip(self, W: NDArray[np.float64]) -> NDArray[np.float64]:
         """Unit slip direction s kept by the flow from u_t = 0: W_tn − μ W_tt s ∥ +s."""
@@ -124,14 +124,14 @@ class CoulombLaw(ImpactLaw):
             P = np.append(y[: d - 1], pn)
             return u0 + W @ P
 
-        stick_rate = self._stick_ratio(W) if mu > 0 else None
+        stick_rate = self._stick_ratio(W) if mu > 0 else np.zeros(d - 1)
         can_stick = mu > 0 and float(np.linalg.norm(stick_rate)) <= mu * (1 + 1e-12)
         pn, y = 0.0, np.zeros(d)  # P_t and work_n = ∫ u_n dp_n
         mode = "slip"
         ut = u0[:-1]
         if float(np.linalg.norm(ut)) <= tiny and mu > 0:
             mode = "stick" if can_stick else "reslip"
-        direction = None if mode != "reslip" else self._invariant_slip(W)
+        direction = self._invariant_slip(W) if mode == "reslip" else np.zeros(d - 1)
         p_c: float | None = None  # normal impulse at maximum compression
         work_c: float | None = None
         horizon = 1e3 * abs(un0) / max(W[-1, -1], 1e-300) + 1e3 * abs(un0) / scale
@@ -162,7 +162,7 @@ class CoulombLaw(ImpactLaw):
             compression_end.direction = 1.0  # type: ignore[attr-defined]
 
             def finished(pn: float, y: NDArray[np.float64]) -> float:
-                if p_c is None:
+                if p_c is None or work_c is None:  # both are set together, at maximum compression
                     return -1.0
                 if self.restitution == "newton":
                     return float(velocity(pn, y)[-1]) + e * un0
@@ -186,7 +186,7 @@ class CoulombLaw(ImpactLaw):
 
             if mode == "slip" and mu > 0 and float(np.linalg.norm(velocity(pn, y)[:-1])) <= tiny:
                 mode = "stick" if can_stick else "reslip"  # the slip stopped with the last phase
-                direction = self._invariant_slip(W) if mode == "reslip" else None
+                direction = self._invariant_slip(W) if mode == "reslip" else np.zeros(d - 1)
             if p_c is None and float(velocity(pn, y)[-1]) >= 0.0:  # compression ended with the last phase
                 p_c, work_c = pn, float(y[-1])
             if p_c is not None and (e == 0.0 or finished(pn, y) >= 0.0):

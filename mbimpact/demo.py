@@ -31,5 +31,5 @@ def demo_rows(
     """Newton's law and the rough law per roughness level, at each incidence angle."""
     laws: dict[str, ImpactLaw] = {"Newton (frictionless)": NewtonLaw(e)}
     laws |= {f"rough, cone alpha={a:g}": RoughLaw(Cone(a), e) for a in alphas}
-    contact = PointContact("tool0", normal=(0.0, 0.0, 1.0), tangent=(1.0, 0.0, 0.0))
+    contact = PointContact("tool0", normal=np.array([0.0, 0.0, 1.0]), tangent=np.array([1.0, 0.0, 0.0]))
     return compare_laws(Mechanism.from_robot("ur5"), UR5_POSTURE, contact, laws, betas_deg, speed)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 import pinocchio as pin
@@ -95,7 +95,7 @@ class Resolved:
 def _per_contact(name: str, x: float | Sequence[float] | None, count: int) -> list[float | None]:
     if x is None or np.isscalar(x):
         return [x] * count  # type: ignore[list-item]
-    vals = list(x)  # type: ignore[arg-type]
+    vals: list[float | None] = list(x)  # type: ignore[arg-type]
     if len(vals) != count:
         raise ShapeError(f"{name} has {len(vals)} entries for {count} contacts")
     return vals
@@ -106,7 +106,7 @@ def resolve(
     q: ArrayLike,
     v: ArrayLike,
     contacts: PointContact | Sequence[PointContact],
-    facets: ArrayLike | Sequence[ArrayLike] | None = None,
+    facets: ArrayLike | None = None,
     *,
     M: float | Sequence[float] = 1e3,
     k: float | Sequence[float] | None = None,
@@ -169,7 +169,7 @@ def resolve(
     if c == 0:
         raise ShapeError("at least one contact is needed")
     q0, v0 = mech.check_state(q, v)
-    Ms = [as_scalar("M", m, 0.0, math.inf) for m in _per_contact("M", M, c)]
+    Ms = [as_scalar("M", m, 0.0, math.inf) for m in cast(list[float], _per_contact("M", M, c))]  # M is never None
     if any(m <= 0 for m in Ms):
         raise ParameterError(f"stiffness M must be > 0, got {M}")
     if k is not None and e is not None:
@@ -248,6 +248,7 @@ def resolve(
         lam = forces(f, G @ vel)
         tau = G.T @ lam
         if dynamics == "impact":
+            assert A0inv is not None
             acc, dqdt = A0inv @ tau, vel
         else:
             acc = pin.aba(model, data, qc, vel, tau)

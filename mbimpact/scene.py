@@ -172,8 +172,12 @@ class _Reader:
             raise self.fail(f"{path}.{key}", f"must be a finite number ≥ {lo:g}, got {val!r}")
         return float(val)
 
-    def vector(self, table: dict, key: str, path: str, size: int | None, default: Any = None) -> NDArray[np.float64] | None:
-        val = table.get(key, default)
+    def vector(self, table: dict, key: str, path: str, size: int | None, default: list[float]) -> NDArray[np.float64]:
+        vec = self.optional_vector(table, key, path, size)
+        return np.array(default, dtype=float) if vec is None else vec
+
+    def optional_vector(self, table: dict, key: str, path: str, size: int | None) -> NDArray[np.float64] | None:
+        val = table.get(key)
         if val is None:
             return None
         if not isinstance(val, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in val):
@@ -208,11 +212,13 @@ def _law(r: _Reader, c: dict, path: str) -> ImpactLaw:
     rest = {"e": r.number(c, "e", path)} if "e" in c else {"k": r.number(c, "k", path)}
     try:
         if kind == "newton":
-            return NewtonLaw(**rest)
+            return NewtonLaw(e=rest.get("e"), k=rest.get("k"))
         if kind == "rough":
-            return RoughLaw(_roughness(r, c.get("roughness", {"kind": "smooth"}), f"{path}.roughness"), **rest)
+            rough = _roughness(r, c.get("roughness", {"kind": "smooth"}), f"{path}.roughness")
+            return RoughLaw(rough, e=rest.get("e"), k=rest.get("k"))
         if kind == "coulomb":
-            return CoulombLaw(mu=r.number(c, "mu", path), restitution=c.get("restitution", "energetic"), **rest)
+            return CoulombLaw(mu=r.number(c, "mu", path), restitution=c.get("restitution", "energetic"),
+                              e=rest.get("e"), k=rest.get("k"))
     except ImpactError as exc:
         raise r.fail(path, str(exc)) from exc
     raise r.fail(f"{path}.law", f"unknown law {kind!r}; valid: newton, rough, coulomb")
@@ -250,7 +256,7 @@ def load_scene(source: str | Path) -> Scene:
     except ImpactError as exc:
         raise r.fail("mechanism", str(exc)) from exc
     init = doc.get("initial", {})
-    q0 = r.vector(init, "q", "initial", mech.nq)
+    q0 = r.optional_vector(init, "q", "initial", mech.nq)
     if q0 is None:
         posture = init.get("posture", "neutral")
         if posture != "neutral":
@@ -291,7 +297,7 @@ def load_scene(source: str | Path) -> Scene:
     try:
         return Scene(
             mech, q0, v0, tuple(contacts), bool(forces.get("gravity", True)), r.number(forces, "damping", "forces", 0.0, 0.0),
-            r.vector(forces, "torque", "forces", mech.nv), r.number(sim, "duration", "simulation", 1.0, 0.0),
+            r.optional_vector(forces, "torque", "forces", mech.nv), r.number(sim, "duration", "simulation", 1.0, 0.0),
             r.number(sim, "rest_velocity", "simulation", 1e-3, 0.0), int(r.number(sim, "max_impacts", "simulation", 10_000, 1)),
             r.number(sim, "rtol", "simulation", 1e-9, 1e-14), tuple(rec), str(doc.get("name", path.stem)),
         )

@@ -281,14 +281,14 @@ def _series(rough: IsotropicSlopes, W: NDArray[np.float64], metric_flux: bool, M
             if out is None:
                 return None
             values[k * stride], tail_f = out[0], max(tail_f, out[1])
-        V = np.array([values[k * stride] for k in range(N + 1)])  # (N + 1, 4, L + 1)
+        V = np.array([values[k * stride] for k in range(N + 1)], dtype=np.complex128)  # (N + 1, 4, L + 1)
         # coefficients by the DCT-I on those points (end terms halved)
         idx = np.arange(N + 1)
         T = np.cos(np.pi * np.outer(idx, idx) / N)
         V_half = V.copy()
         V_half[0] /= 2
         V_half[-1] /= 2
-        coef = (2.0 / N) * np.tensordot(T, V_half, axes=1)
+        coef = np.asarray((2.0 / N) * np.tensordot(T, V_half, axes=1), dtype=np.complex128)
         coef[0] /= 2
         coef[-1] /= 2
         scale = np.abs(coef).max()
