@@ -1,6 +1,7 @@
 """Properties 1°–5° of the paper's section 3 and the invariants of (2.8)."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -35,11 +36,22 @@ def rough_law(rough, rng, flux="metric"):
     return mbi.RoughLaw(rough, float(rng.uniform(0, 1)), flux=flux)
 
 
+def apply(law, A, J, v, n0):
+    """``law.apply``; a random contact may be ill-conditioned enough for the quadrature to stop at
+    rounding above rtol: then, and only then, it warns (an honest AccuracyWarning)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", mbi.AccuracyWarning)
+        res = law.apply(A, J, v, n0)
+    if caught:
+        assert res.error_estimate > law.rtol
+    return res
+
+
 @given(seeds, st.sampled_from(["metric", "contact"]))
 def test_energy_never_grows(seed, flux):
     rng, A, J, v, n0, rough = random_problem(seed)
     try:
-        res = rough_law(rough, rng, flux).apply(A, J, v, n0)
+        res = apply(rough_law(rough, rng, flux), A, J, v, n0)
     except mbi.NoFacingFacetError:
         return
     assert res.energy_loss >= -1e-12 * res.T_minus
@@ -53,10 +65,10 @@ def test_homogeneous_of_degree_one(seed, scale):
     rng, A, J, v, n0, rough = random_problem(seed)
     law = rough_law(rough, rng)
     try:
-        base = law.apply(A, J, v, n0)
+        base = apply(law, A, J, v, n0)
     except mbi.NoFacingFacetError:
         return
-    scaled = law.apply(A, J, scale * v, n0)
+    scaled = apply(law, A, J, scale * v, n0)
     np.testing.assert_allclose(scaled.dv, scale * base.dv, rtol=1e-10, atol=1e-12 * scale * np.abs(base.dv).max())
     assert scaled.kappa == pytest.approx(base.kappa, rel=1e-9, abs=1e-12)
     assert scaled.mu == pytest.approx(base.mu, rel=1e-9, abs=1e-12)
@@ -70,15 +82,15 @@ def test_independent_of_generalised_coordinates(seed, flux):
     T = rng.normal(size=(n, n)) + 2 * np.eye(n)
     law = rough_law(rough, rng, flux)
     try:
-        res = law.apply(A, J, v, n0)
+        res = apply(law, A, J, v, n0)
     except mbi.NoFacingFacetError:
         return
-    res_y = law.apply(T.T @ A @ T, J @ T, np.linalg.solve(T, v), n0)
+    res_y = apply(law, T.T @ A @ T, J @ T, np.linalg.solve(T, v), n0)
     # the same W up to the rounding of forming T'AT and JT (amplified by cond(T)² cond(A)),
     # to which the impact is Lipschitz: the tolerance follows that discrepancy
     W, W_y = (mbi.ContactMetric.from_arrays(r.A, r.J).W for r in (res, res_y))
     rtol = max(1e-7, 10 * float(np.abs(W_y - W).max() / np.abs(W).max()))
-    np.testing.assert_allclose(T @ res_y.v_plus, res.v_plus, rtol=rtol, atol=1e-8 * np.abs(v).max())
+    np.testing.assert_allclose(T @ res_y.v_plus, res.v_plus, rtol=rtol, atol=10 * rtol * np.abs(v).max())
     np.testing.assert_allclose(res_y.P, res.P, rtol=rtol, atol=1e-9 * np.abs(res.P).max())
     assert res_y.energy_loss == pytest.approx(res.energy_loss, rel=rtol, abs=1e-10)
 
@@ -89,7 +101,7 @@ def test_1_impulse_direction_fixed_by_velocity_direction(seed):
     rng, A, J, v, n0, rough = random_problem(seed)
     law = rough_law(rough, rng)
     try:
-        a, b = law.apply(A, J, v, n0), law.apply(A, J, 1e3 * v, n0)
+        a, b = apply(law, A, J, v, n0), apply(law, A, J, 1e3 * v, n0)
     except mbi.NoFacingFacetError:
         return
     np.testing.assert_allclose(a.P / np.linalg.norm(a.P), b.P / np.linalg.norm(b.P), atol=1e-10)
@@ -163,7 +175,7 @@ def test_5_no_microrelief_is_newton(seed):
     newton = mbi.NewtonLaw(e).apply(A, J, v, n0)
     flat = [mbi.Smooth(), mbi.Facets(np.eye(d)[-1:])] + ([mbi.Sawtooth(0.0)] if d == 2 else [mbi.Cone(0.0)])
     for rough in flat:
-        res = mbi.RoughLaw(rough, e).apply(A, J, v, n0)
+        res = apply(mbi.RoughLaw(rough, e), A, J, v, n0)
         np.testing.assert_allclose(res.v_plus, newton.v_plus, rtol=1e-13, atol=1e-13 * np.abs(v).max())
     assert newton.kappa == pytest.approx(e, abs=1e-12)
     assert newton.mu <= 1e-14  # P = P_n n⁰; what is left is the rounding of n⁰·n⁰ = 1
