@@ -138,6 +138,9 @@ def tilt_segments(
     return np.concatenate([t1, t2], axis=1), np.concatenate([w1, w2], axis=1)
 
 
+# Grid of the vectorised ring-minimum search: two minima closer than its spacing (a ring
+# nearly touching a valley of q) would be taken for one.
+_GRID_N = 256
 # (1, cos φ, sin φ, cos 2φ, sin 2φ) on the 64-point grid that brackets the minima of q.
 _GRID_HARMONICS = np.cos(np.multiply.outer(2 * np.pi * np.arange(64) / 64, [0.0, 1.0, 1.0, 2.0, 2.0])
                          - np.array([0.0, 0.0, np.pi / 2, 0.0, np.pi / 2]))
@@ -225,7 +228,7 @@ def ring_minima_many(alpha: NDArray[np.float64], W: NDArray[np.float64]) -> tupl
     """
     s, c = np.sin(alpha)[..., None], np.cos(alpha)[..., None]
     q0, a1, b1, a2, b2 = _ring_coefficients(s, c, W)  # each (..., 1)
-    grid = 2 * math.pi * np.arange(64) / 64
+    grid = 2 * math.pi * np.arange(_GRID_N) / _GRID_N
     q = q0 + a1 * np.cos(grid) + b1 * np.sin(grid) + a2 * np.cos(2 * grid) + b2 * np.sin(2 * grid)
     is_min = (q <= np.roll(q, 1, axis=-1)) & (q < np.roll(q, -1, axis=-1))
     first = np.argsort(~is_min, axis=-1, kind="stable")[..., :2]  # the (at most two) grid minima
