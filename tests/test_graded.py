@@ -1,4 +1,5 @@
-"""Graded azimuth quadrature for nearly singular Delassus matrices (arms near singular postures)."""
+"""Graded quadrature (azimuth; tilt and azimuth for tilt densities) for nearly singular Delassus
+matrices (arms near singular postures)."""
 
 import functools
 import math
@@ -6,6 +7,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate
 
 import mbimpact as mbi
@@ -258,3 +261,38 @@ def test_a_product_rule_of_millions_of_facets_does_not_drift_with_rounding():
     u /= np.linalg.norm(u)
     P64, P256 = (mbi.RoughLaw(measure, 0.5, nodes=n).contact_impulses(W, u[None])[0][0] for n in (64, 256))
     assert w_error(P256, P64, W) < 1e-10
+
+
+def _graded_slopes_case(seed: int) -> None:
+    """Random W with cond 1e3…1e9, random σ and incidence: finite, no energy gained, and an error
+    estimate that a rule with twice the nodes confirms (or an AccuracyWarning that says it was not met)."""
+    rng = np.random.default_rng(seed)
+    W = spd(rng, 3, 10 ** rng.uniform(3, 9))
+    measure = mbi.GaussianSlopes(rng.uniform(0.05, 0.8))
+    u = rng.normal(size=3)
+    u[2] = -abs(u[2]) - 0.01
+    u /= np.linalg.norm(u)
+    law = mbi.RoughLaw(measure, 0.5)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", mbi.AccuracyWarning)
+        P, est, nodes = law.contact_impulses(W, u[None])
+    assert np.all(np.isfinite(P)) and (not caught or est[0] > law.rtol)
+    assert -0.5 * P[0] @ (2 * u + W @ P[0]) >= -1e-12  # energy lost, in contact space (unit u)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.AccuracyWarning)
+        finer = mbi.RoughLaw(measure, 0.5, nodes=min(2 * nodes, 256)).contact_impulses(W, u[None])[0]
+    assert w_error(P[0], finer[0], W) <= 10 * est[0] + 1e-9
+
+
+@settings(max_examples=4, deadline=None)  # 10–500 ms each
+@given(st.integers(0, 2**32 - 1))
+def test_graded_slopes_on_random_nearly_singular_w(seed):
+    _graded_slopes_case(seed)
+
+
+@pytest.mark.slow
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_graded_slopes_on_random_nearly_singular_w_nightly(seed):
+    """The same over 300 cases: ``pytest -m slow``."""
+    _graded_slopes_case(seed)
