@@ -126,10 +126,15 @@ class IsotropicSlopes(Roughness):
         lo, hi = self.support
         split = np.arctan2(np.abs(U[:, -1]), np.linalg.norm(U[:, :-1], axis=1))
         tilt, dtilt = graded_tilt_rule(lo, hi, split, peak_tilts(W, U, peaked), nodes)
+        # pieces of zero length (hints outside the support, minima off the facing arc) carry
+        # no weight in any row of the block: leave their nodes out
+        used = (dtilt > 0.0).any(axis=0)
+        tilt, dtilt = tilt[:, used], dtilt[:, used]
         normals, w_az = graded_azimuth_rule(tilt, ring_minima_many(tilt, W), U, nodes)
         B, L = tilt.shape
-        weights = w_az.reshape(B, L, -1) * (self._density(tilt) * dtilt)[..., None]
-        return normals, weights.reshape(B, -1)
+        weights = (w_az.reshape(B, L, -1) * (self._density(tilt) * dtilt)[..., None]).reshape(B, -1)
+        used = (weights > 0.0).any(axis=0)
+        return normals[:, used], weights[:, used]
 
     def _graded_planar(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
