@@ -8,7 +8,8 @@ Three measurements, all taken in the same run so that ratios are meaningful:
    uniform azimuth sampling (G* by indicator), and Monte Carlo; then Gaussian
    slopes at a near-singular posture (graded quadrature vs Monte Carlo).
 2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of
-   the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v.
+   the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v; beside it the
+   Pinocchio calls alone and the floor of validating q, v and building the result.
 3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
    increasing size and for several node counts.
 4. ``compliant`` — error of the impact resolved in time (:func:`mbimpact.resolve`)
@@ -34,6 +35,7 @@ from .contact import PointContact, impact
 from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
 from .mechanism import Mechanism
 from .progress import Progress
+from .result import ImpactResult
 from .roughlaw import RoughLaw
 from .roughness import Cone, Facets
 from .slopes import GaussianSlopes
@@ -201,6 +203,17 @@ def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> l
         t_floor = per_call(pin_work, min_time)
         rows.append(BenchRow("overhead", name, "Pinocchio calls inside impact(NewtonLaw) only", mech.nv, 0.0,
                              t_floor, t_floor / t_pin))
+        newton = NewtonLaw(E)
+        n0, A = np.array([0.0, 0.0, 1.0]), mech.mass_matrix(q)
+
+        def python_floor() -> None:  # what any impact() returning an ImpactResult pays before any physics
+            q_, v_ = mech.check_state(q, v)
+            ImpactResult(v_minus=v_.copy(), v_plus=v_, dv=v_, P=n0, u_minus=n0, u_plus=n0, n0=n0, A=A, J=J,
+                         law=newton)
+
+        t_python = per_call(python_floor, min_time)
+        rows.append(BenchRow("overhead", name, "validation + result object only (no physics)", mech.nv, 0.0,
+                             t_python, t_python / t_pin))
         for label, law in (("impact, NewtonLaw", NewtonLaw(E)), ("impact, RoughLaw(Cone)", RoughLaw(Cone(0.3), E))):
             t = per_call(lambda: impact(mech, q, v, contact, law), min_time)
             rows.append(BenchRow("overhead", name, label, mech.nv, 0.0, t, t / t_pin))

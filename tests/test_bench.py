@@ -36,6 +36,10 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     over = [r for r in rows if r["part"] == "overhead"]
     assert {r["case"] for r in over} >= {"ur5", "solo12"}
     assert all(float(r["ratio"]) > 0 for r in over)
+    for robot in ("ur5", "solo12"):  # the floor and the Pinocchio calls are parts of the Newton impact's cost
+        t = {r["method"]: float(r["seconds"]) for r in over if r["case"] == robot}
+        assert t["validation + result object only (no physics)"] < t["impact, NewtonLaw"]
+        assert t["Pinocchio calls inside impact(NewtonLaw) only"] < t["impact, NewtonLaw"]
     assert all(float(r["ratio"]) > 0 for r in rows if r["part"] == "batch")
     comp = [r for r in rows if r["part"] == "compliant" and r["method"].startswith("resolve")]
     errs = [float(r["error"]) for r in sorted(comp, key=lambda r: float(r["param"]))]
