@@ -15,7 +15,11 @@ it is written once for a batch of velocities (rows); a single impact is a batch 
 from __future__ import annotations
 
 import math
+import os
+import sys
+import warnings
 from abc import ABC, abstractmethod
+from types import FrameType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -41,6 +45,19 @@ _BLOCK = 2048
 
 class AccuracyWarning(RuntimeWarning):
     """The averaging quadrature stopped before reaching the requested ``rtol``."""
+
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__))
+
+
+def warn_accuracy(message: str) -> None:
+    """Issue an :class:`AccuracyWarning` attributed to the first caller outside mbimpact
+    (impact, apply, apply_batch, a scene… reach the quadrature at different depths)."""
+    frame: FrameType | None = sys._getframe(1)
+    level = 2  # stacklevel 2 is the caller of this function
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, AccuracyWarning, stacklevel=level)
 
 
 def _restitution(e: float | None, k: float | None) -> float:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Literal
 
 import numpy as np
@@ -14,10 +13,10 @@ from .cone_pair import cone_pair
 from .errors import NoFacingFacetError, ParameterError, RoughnessError
 from .laws import (
     _DEGENERATE,
-    AccuracyWarning,
     ImpactLaw,
     _relative_change,
     _restitution,
+    warn_accuracy,
 )
 from .metric import eigen_ratio, spread_bound
 from .ring import ring_expansion
@@ -329,19 +328,11 @@ class RoughLaw(ImpactLaw):
             P[block], err[block], nodes_b, limited_b, capped_b = self._refine(W, U[block], rule)
             nodes, limited, capped = max(nodes, nodes_b), limited or limited_b, capped or capped_b
         if capped:
-            warnings.warn(
-                f"{self!r}: quadrature reached {nodes} nodes with estimated relative error "
-                f"{err.max():.3g} > rtol={self.rtol:g}",
-                AccuracyWarning,
-                stacklevel=5,
-            )
+            warn_accuracy(f"{self!r}: quadrature reached {nodes} nodes with estimated relative error "
+                          f"{err.max():.3g} > rtol={self.rtol:g}")
         elif limited:
-            warnings.warn(
-                f"{self!r}: converged to rounding at relative error {err.max():.3g} > rtol={self.rtol:g}; "
-                "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach",
-                AccuracyWarning,
-                stacklevel=5,
-            )
+            warn_accuracy(f"{self!r}: converged to rounding at relative error {err.max():.3g} > rtol={self.rtol:g}; "
+                          "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach")
         return P, err, nodes
 
     def _refine(self, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None

@@ -296,3 +296,18 @@ def test_graded_slopes_on_random_nearly_singular_w(seed):
 def test_graded_slopes_on_random_nearly_singular_w_nightly(seed):
     """The same over 300 cases: ``pytest -m slow``."""
     _graded_slopes_case(seed)
+
+
+def test_accuracy_warning_points_at_the_callers_line():
+    """Whatever the entry point (impact, apply, apply_batch), the warning names the user's line."""
+    mech, J, A = upright_ur5()
+    v = np.linalg.lstsq(J, [0.2, 0.1, -1.0], rcond=None)[0]
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, rtol=1e-15)  # below the rounding this contact allows
+    calls = [lambda: mbi.impact(mech, UPRIGHT, v, mbi.PointContact("tool0"), law),
+             lambda: law.apply(A, J, v, [0, 0, 1]),
+             lambda: law.apply_batch(A, J, np.array([v, 2 * v]), [0, 0, 1])]
+    for call in calls:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", mbi.AccuracyWarning)
+            call()
+        assert caught and all(w.filename == __file__ for w in caught)
