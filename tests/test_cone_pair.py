@@ -25,10 +25,11 @@ def test_single_velocity_shortcut_equals_the_general_rule(seed, alpha, flux, con
         N, D = cone_pair(alpha, W, u, 32, flux == "metric", 1e-14)
         P = 1.5 * N / D[:, None]
         general, _ = law._average_levels(W, u[None], (32, 64))
-        assert relative_du(P, np.vstack(general), W).max() < 1e-13  # rounding of different sums
+        # the same sums in another order: rounding, which grows with cond W
+        assert relative_du(P, np.vstack(general), W).max() < 2e-14 * cond
         fast = law.contact_impulses(W, u[None])
         slow = law._adaptive(W, u[None])
-        assert relative_du(fast[0], slow[0], W)[0] < 1e-13
+        assert relative_du(fast[0], slow[0], W)[0] < 2e-14 * cond
         # the same first pass: it settles the row (or the general route refines it), never more loosely
         assert fast[1][0] <= law.rtol and fast[2] <= slow[2]
 
