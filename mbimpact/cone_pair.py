@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .quadrature import _ring_coefficients, gauss_legendre
+from .quadrature import gauss_legendre, ring_coefficients
 
 __all__ = ["cone_pair"]
 
@@ -94,7 +94,7 @@ def cone_pair(
         T = np.cos(h * X - _PHASE)
         levels = h * unit
         sign = _ARC_SIGN
-    q0, a1, b1, a2, b2 = _ring_coefficients(s, c, W)
+    q0, a1, b1, a2, b2 = ring_coefficients(s, c, W)
     c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
     # columns: mᵀu and mᵀWm in the harmonics of θ; M: the three components of m
     coef = np.array([[c * uz, q0, 0.0, 0.0, c],

@@ -18,8 +18,8 @@ import scipy.special
 from numpy.typing import NDArray
 
 __all__ = [
-    "gauss_legendre", "azimuth_rule", "tilt_segments", "ring_minima", "ring_width_bound", "ring_minima_many",
-    "graded_azimuth_rule", "graded_tilt_rule", "peak_tilts",
+    "gauss_legendre", "azimuth_rule", "tilt_segments", "ring_coefficients", "ring_minima", "ring_width_bound",
+    "ring_minima_many", "graded_azimuth_rule", "graded_tilt_rule", "peak_tilts",
 ]
 
 
@@ -146,7 +146,7 @@ _GRID_HARMONICS = np.cos(np.multiply.outer(2 * np.pi * np.arange(64) / 64, [0.0,
                          - np.array([0.0, 0.0, np.pi / 2, 0.0, np.pi / 2]))
 
 
-def _ring_coefficients(s: Any, c: Any, W: NDArray[np.float64]) -> tuple[Any, Any, Any, Any, Any]:
+def ring_coefficients(s: Any, c: Any, W: NDArray[np.float64]) -> tuple[Any, Any, Any, Any, Any]:
     """q(φ) = mᵀWm on the cone of tilt α (s = sin α, c = cos α; floats or arrays) as
     q0 + a1 cos φ + b1 sin φ + a2 cos 2φ + b2 sin 2φ: the coefficients (q0, a1, b1, a2, b2)."""
     w = W.tolist()
@@ -166,7 +166,7 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
     -------
     phi, eps : ndarray, shape (k,), k ≤ 2
     """
-    q0, a1, b1, a2, b2 = _ring_coefficients(math.sin(alpha), math.cos(alpha), W)
+    q0, a1, b1, a2, b2 = ring_coefficients(math.sin(alpha), math.cos(alpha), W)
 
     grid = 2 * math.pi * np.arange(64) / 64
     q = q0 + a1 * np.cos(grid) + b1 * np.sin(grid) + a2 * np.cos(2 * grid) + b2 * np.sin(2 * grid)
@@ -200,7 +200,7 @@ def ring_width_bound(alpha: float, W: NDArray[np.float64]) -> float:
     minimum, and q'' ≤ q''_max = sqrt(a₁² + b₁²) + 4 sqrt(a₂² + b₂²) everywhere, so
     ε = sqrt(2 q_min / q'') ≥ sqrt(2 (min_grid q − q''_max h² / 8) / q''_max).
     """
-    q0, a1, b1, a2, b2 = _ring_coefficients(math.sin(alpha), math.cos(alpha), W)
+    q0, a1, b1, a2, b2 = ring_coefficients(math.sin(alpha), math.cos(alpha), W)
     curvature = math.hypot(a1, b1) + 4.0 * math.hypot(a2, b2)
     if not curvature > 0.0:
         return math.inf  # q is constant on the ring: no peak
@@ -227,7 +227,7 @@ def ring_minima_many(alpha: NDArray[np.float64], W: NDArray[np.float64]) -> tupl
         Minima and widths; NaN where a ring has fewer than two minima.
     """
     s, c = np.sin(alpha)[..., None], np.cos(alpha)[..., None]
-    q0, a1, b1, a2, b2 = _ring_coefficients(s, c, W)  # each (..., 1)
+    q0, a1, b1, a2, b2 = ring_coefficients(s, c, W)  # each (..., 1)
     grid = 2 * math.pi * np.arange(_GRID_N) / _GRID_N
     q = q0 + a1 * np.cos(grid) + b1 * np.sin(grid) + a2 * np.cos(2 * grid) + b2 * np.sin(2 * grid)
     is_min = (q <= np.roll(q, 1, axis=-1)) & (q < np.roll(q, -1, axis=-1))

@@ -17,6 +17,7 @@ from mbimpact.quadrature import (
     graded_azimuth_rule,
     graded_tilt_rule,
     peak_tilts,
+    ring_coefficients,
     ring_minima,
     ring_minima_many,
 )
@@ -311,3 +312,12 @@ def test_accuracy_warning_points_at_the_callers_line():
             warnings.simplefilter("always", mbi.AccuracyWarning)
             call()
         assert caught and all(w.filename == __file__ for w in caught)
+
+
+def test_ring_coefficients_reproduce_the_quadratic_form(rng):
+    W = spd(rng, 3, 50.0)
+    alpha, phi = 0.7, rng.uniform(0, 2 * math.pi, 9)
+    q0, a1, b1, a2, b2 = ring_coefficients(math.sin(alpha), math.cos(alpha), W)
+    m = np.column_stack([math.sin(alpha) * np.cos(phi), math.sin(alpha) * np.sin(phi), np.full(9, math.cos(alpha))])
+    q = q0 + a1 * np.cos(phi) + b1 * np.sin(phi) + a2 * np.cos(2 * phi) + b2 * np.sin(2 * phi)
+    np.testing.assert_allclose(q, np.einsum("ki,ij,kj->k", m, W, m), rtol=1e-13)
