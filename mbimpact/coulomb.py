@@ -119,7 +119,7 @@ class CoulombLaw(ImpactLaw):
         atol = self.rtol * 1e-3 / scale
         tiny = 1e-9 * float(np.linalg.norm(u0))  # slip speed regarded as zero
 
-        # state y = (P_t (d-1), work_n); the clock is p_n
+        # state y = (P_t (d-1), work_n): the work of compression, then (restarted) of restitution; clock p_n
         def velocity(pn: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
             P = np.append(y[: d - 1], pn)
             return u0 + W @ P
@@ -134,7 +134,11 @@ class CoulombLaw(ImpactLaw):
         direction = self._invariant_slip(W) if mode == "reslip" else np.zeros(d - 1)
         p_c: float | None = None  # normal impulse at maximum compression
         work_c: float | None = None
-        horizon = 1e3 * abs(un0) / max(W[-1, -1], 1e-300) + 1e3 * abs(un0) / scale
+        # the normal impulse over which compression must end: u_n grows at rate W_nn while
+        # slipping, but only at the Schur complement W_nn − W_ntW_tt⁻¹W_tn while sticking,
+        # which a nearly singular W makes far smaller
+        schur = float(W[-1, -1] + W[-1, :-1] @ stick_rate) if can_stick else float(W[-1, -1])
+        horizon = 1e3 * abs(un0) * (1.0 / max(W[-1, -1], 1e-300) + 1.0 / max(schur, 1e-12 * scale) + 1.0 / scale)
 
         slip_sign = np.sign(u0[:-1])
         for _ in range(6):  # slip → stop → stick / reverse: a few phases at most
@@ -168,7 +172,7 @@ class CoulombLaw(ImpactLaw):
                     return float(velocity(pn, y)[-1]) + e * un0
                 if self.restitution == "poisson":
                     return pn - (1.0 + e) * p_c
-                return (y[-1] - work_c) + e * e * work_c  # energetic: W_r = −e² W_c
+                return y[-1] + e * e * work_c  # energetic: W_r = −e² W_c (y[-1] = W_r after compression)
 
             finished.terminal = True  # type: ignore[attr-defined]
             finished.direction = 1.0  # type: ignore[attr-defined]
@@ -188,7 +192,7 @@ class CoulombLaw(ImpactLaw):
                 mode = "stick" if can_stick else "reslip"  # the slip stopped with the last phase
                 direction = self._invariant_slip(W) if mode == "reslip" else np.zeros(d - 1)
             if p_c is None and float(velocity(pn, y)[-1]) >= 0.0:  # compression ended with the last phase
-                p_c, work_c = pn, float(y[-1])
+                p_c, work_c, y = pn, float(y[-1]), np.append(y[:-1], 0.0)
             if p_c is not None and (e == 0.0 or finished(pn, y) >= 0.0):
                 return np.append(y[: d - 1], pn)
             events = [finished, stops] + ([compression_end] if p_c is None else [])
@@ -202,7 +206,9 @@ class CoulombLaw(ImpactLaw):
             if which is finished:
                 return np.append(y[: d - 1], pn)
             if which is compression_end:
-                p_c, work_c = pn, float(y[-1])
+                # the work restarts from 0: W_r = −e² W_c is then located to the precision of W_r
+                # itself, not of W_c (u_n⁺ would otherwise carry an error of order sqrt(ε |W_c|))
+                p_c, work_c, y = pn, float(y[-1]), np.append(y[:-1], 0.0)
                 continue
             # slip stopped
             mode = "stick" if can_stick else "reslip"

@@ -152,7 +152,10 @@ class ImpactLaw(ABC):
     ) -> ImpactResult:
         """:meth:`apply` for a mechanism at a validated state, with the contact Jacobian
         ``J`` (d, nv) and contact basis ``R`` (d, d) at q (:func:`mbimpact.impact`)."""
-        metric = ContactMetric.from_inverse(mech.mass_matrix(q), mech.inverse_mass_matrix(q), J)
+        A = mech.factorise(q)
+        # A⁻¹Jᵀ by the factor, a solve per row of J: backward stable, whereas the product with
+        # an explicit inverse (pin.computeMinverse) errs by ~ε cond(A) in every entry
+        metric = ContactMetric.from_solved(A, J, np.column_stack([mech.solve(row) for row in J]))
         return self.apply_metric(metric, v, R)
 
     def apply_metric(

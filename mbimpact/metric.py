@@ -97,10 +97,9 @@ class ContactMetric:
         return cls(A, J, AinvJt, W)
 
     @classmethod
-    def from_inverse(cls, A: NDArray[np.float64], Ainv: NDArray[np.float64], J: NDArray[np.float64]) -> ContactMetric:
-        """Fast path with A⁻¹ already known (``pin.computeMinverse``); falls back to the
-        checked factorisation if A⁻¹ is not finite (a singular mass matrix)."""
-        AinvJt = Ainv @ J.T
+    def from_solved(cls, A: NDArray[np.float64], J: NDArray[np.float64], AinvJt: NDArray[np.float64]) -> ContactMetric:
+        """Fast path with A⁻¹Jᵀ already solved (the sparse Cholesky factor of ``pin.crba``);
+        falls back to the checked factorisation if it is not finite (a singular mass matrix)."""
         if not math.isfinite(np.vdot(AinvJt, AinvJt)):  # a NaN or ∞ anywhere (or overflow) takes the checked route
             return cls.from_symmetric(A, J)
         return cls.from_factorised(A, J, AinvJt)

@@ -191,3 +191,22 @@ def test_sticking_plastic_impact_against_pinocchio_admm_coulomb_cone(name, frame
     res = mbi.impact(mech, q, v, mbi.PointContact(frame), mbi.CoulombLaw(0.0, 3.0))
     assert np.linalg.norm(res.P[:2]) < 3.0 * res.P[2]  # inside the cone: sticking
     np.testing.assert_allclose(res.P, lam, rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize("restitution", RESTITUTIONS)
+@pytest.mark.parametrize("e", [1e-10, 1e-6, 0.3])
+def test_tiny_restitution_is_reached_to_rounding(restitution, e):
+    """u_n⁺ = e |u_n⁻| also for e = 1e-10: the energetic criterion W_r = −e² W_c is located on the
+    work of restitution alone (on the total work it was only good to ~sqrt(ε) ≈ 1e-8)."""
+    res = mbi.CoulombLaw(e, 1.5, restitution).apply(np.eye(2), np.eye(2), [2.0, -1.0], [0, 1])
+    np.testing.assert_allclose(res.u_plus, [2.0 - 1.5 * (1 + e), e], rtol=0, atol=1e-13)
+
+
+def test_sticking_at_a_nearly_singular_delassus_matrix_ends_compression():
+    """Sticking, u_n grows only at the Schur complement W_nn − W_nt²/W_tt (here 1e-4 of W_nn):
+    the integration horizon must allow for it (it used to end before compression did)."""
+    W = np.array([[46.74282839, 5.42633264], [5.42633264, 0.63001083]])
+    L = np.linalg.cholesky(np.linalg.inv(W))  # A = W⁻¹ with J = I gives this Delassus matrix
+    res = mbi.CoulombLaw(0.0, 1.0, "poisson").apply(L @ L.T, np.eye(2), [0.29733802, -0.00430435], [0, 1])
+    assert res.u_plus[1] == pytest.approx(0.0, abs=1e-9)
+    assert res.energy_loss >= 0.0 and res.mu <= 1.0 + 1e-9
