@@ -118,6 +118,9 @@ class CoulombLaw(ImpactLaw):
         scale = float(np.trace(W))
         atol = self.rtol * 1e-3 / scale
         tiny = 1e-9 * float(np.linalg.norm(u0))  # slip speed regarded as zero
+        # a 3-D slip is stopped well above what the integrator resolves (≈ rtol): closer to
+        # u_t = 0 it chatters in ever smaller steps without crossing the threshold
+        stop_3d = max(tiny, 1e3 * self.rtol * float(np.linalg.norm(u0)))
 
         # state y = (P_t (d-1), work_n): the work of compression, then (restarted) of restitution; clock p_n
         def velocity(pn: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -183,7 +186,7 @@ class CoulombLaw(ImpactLaw):
                 ut = velocity(pn, y)[:-1]
                 if d == 2:
                     return float(ut[0]) * math.copysign(1.0, float(u0[0]) if u0[0] != 0 else 1.0)
-                return float(np.linalg.norm(ut)) - tiny
+                return float(np.linalg.norm(ut)) - stop_3d
 
             stops.terminal = True  # type: ignore[attr-defined]
             stops.direction = -1.0  # type: ignore[attr-defined]
@@ -196,8 +199,11 @@ class CoulombLaw(ImpactLaw):
             if p_c is not None and (e == 0.0 or finished(pn, y) >= 0.0):
                 return np.append(y[: d - 1], pn)
             events = [finished, stops] + ([compression_end] if p_c is None else [])
+            # after compression the work restarts from 0; its tolerance stays that of the work
+            # done so far (rtol |W_c|), as when it was accumulated on top of W_c
+            tol = atol if work_c is None else np.append(np.full(d - 1, atol), max(atol, self.rtol * abs(work_c)))
             sol = solve_ivp(rhs, (pn, pn + horizon), y, method="DOP853", events=events,
-                            rtol=self.rtol, atol=atol, dense_output=False)
+                            rtol=self.rtol, atol=tol, dense_output=False)
             pn, y = float(sol.t[-1]), sol.y[:, -1]
             hit = [i for i, ev in enumerate(sol.t_events) if len(ev)]
             if sol.status != 1 or not hit:
@@ -214,4 +220,9 @@ class CoulombLaw(ImpactLaw):
             mode = "stick" if can_stick else "reslip"
             if mode == "reslip":
                 direction = self._invariant_slip(W)
+            elif d > 2:
+                # the residual slip (≤ stop_3d) is what an exact stop would have removed: remove it
+                # with the small tangential impulse −W_tt⁻¹ u_t, then stick
+                ut_left = velocity(pn, y)[:-1]
+                y = np.append(y[: d - 1] - np.linalg.lstsq(W[:-1, :-1], ut_left, rcond=1e-12)[0], y[-1])
         raise RuntimeError("Coulomb impact: too many phase changes")  # pragma: no cover
