@@ -1,6 +1,7 @@
 """mbimpact on Pinocchio mechanisms: Newton's law is pin.impulseDynamics."""
 
 import math
+import warnings
 
 import numpy as np
 import pinocchio as pin
@@ -49,7 +50,13 @@ def test_rough_impacts_on_robots_dissipate_and_reach_the_surface(name, seed, alp
     if abs(contact.normal @ J @ v) < 1e-6 * np.linalg.norm(J @ v):
         return  # grazing or immobile along n0: covered by the hard-case tests
     v = approaching(J, v, contact.normal)
-    res = mbi.impact(mech, q, v, contact, mbi.RoughLaw(mbi.Cone(alpha), e))
+    law = mbi.RoughLaw(mbi.Cone(alpha), e)
+    with warnings.catch_warnings(record=True) as caught:
+        # a planar mechanism (double_pendulum) with a spatial contact has a rank-deficient W: the
+        # quadrature may stop at rounding above rtol, and then says so
+        warnings.simplefilter("always", mbi.AccuracyWarning)
+        res = mbi.impact(mech, q, v, contact, law)
+    assert not caught or res.error_estimate > law.rtol
     assert np.all(np.isfinite(res.v_plus))
     assert res.energy_loss >= -1e-10 * res.T_minus
     assert res.residual < 1e-9
