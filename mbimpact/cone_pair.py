@@ -24,7 +24,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .quadrature import gauss_legendre, ring_coefficients
+from .graded import ring_coefficients
+from .quadrature import gauss_legendre
 
 __all__ = ["cone_pair"]
 

@@ -88,10 +88,10 @@ class RoughLaw(ImpactLaw):
     For a nearly singular W (an arm near a singular posture) the kernels of (2.8)
     peak sharply where mᵀWm is smallest. The adaptive rule is then graded towards
     the peaks by sinh maps (:meth:`Roughness.graded_rule`): for a :class:`Cone`
-    in azimuth (:func:`mbimpact.quadrature.graded_azimuth_rule`), converging with
+    in azimuth (:func:`mbimpact.graded.graded_azimuth_rule`), converging with
     tens of nodes where a uniform rule needs 10⁵; for :class:`IsotropicSlopes` and
-    :class:`GaussianSlopes` in tilt too (:func:`mbimpact.quadrature.graded_tilt_rule`
-    towards :func:`mbimpact.quadrature.peak_tilts`), where the plain product rule
+    :class:`GaussianSlopes` in tilt too (:func:`mbimpact.graded.graded_tilt_rule`
+    towards :func:`mbimpact.graded.peak_tilts`), where the plain product rule
     is off by O(1). Such calls cost 10–150 ms per velocity (spatial).
 
     A single velocity on a :class:`Cone` (W not nearly singular) takes the first

@@ -23,7 +23,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
 from .errors import ParameterError, RoughnessError
-from .quadrature import azimuth_rule, graded_azimuth_rule, ring_minima, ring_width_bound
+from .graded import graded_azimuth_rule, ring_minima, ring_width_bound
+from .quadrature import azimuth_rule
 
 __all__ = ["Roughness", "FiniteRoughness", "Smooth", "Sawtooth", "Cone", "Facets", "check_normals", "check_weights"]
 

@@ -25,15 +25,8 @@ from scipy import integrate
 
 from ._validate import as_scalar
 from .errors import ParameterError, RoughnessError
-from .quadrature import (
-    azimuth_rule,
-    gauss_legendre,
-    graded_azimuth_rule,
-    graded_tilt_rule,
-    peak_tilts,
-    ring_minima_many,
-    tilt_segments,
-)
+from .graded import graded_azimuth_rule, graded_tilt_rule, peak_tilts, ring_minima_many
+from .quadrature import azimuth_rule, gauss_legendre, tilt_segments
 from .roughness import Roughness, Rule
 
 __all__ = ["IsotropicSlopes", "GaussianSlopes"]
@@ -121,7 +114,7 @@ class IsotropicSlopes(Roughness):
 
     def _graded_spatial(self, W: NDArray[np.float64], peaked: float, U: NDArray[np.float64], nodes: int
                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Tilt × azimuth rule graded in both: tilts towards :func:`~mbimpact.quadrature.peak_tilts`,
+        """Tilt × azimuth rule graded in both: tilts towards :func:`~mbimpact.graded.peak_tilts`,
         each ring's azimuths towards its own minima of mᵀWm."""
         lo, hi = self.support
         split = np.arctan2(np.abs(U[:, -1]), np.linalg.norm(U[:, :-1], axis=1))

@@ -12,8 +12,7 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 import mbimpact as mbi
-from mbimpact.quadrature import (
-    gauss_legendre,
+from mbimpact.graded import (
     graded_azimuth_rule,
     graded_tilt_rule,
     peak_tilts,
@@ -21,6 +20,7 @@ from mbimpact.quadrature import (
     ring_minima,
     ring_minima_many,
 )
+from mbimpact.quadrature import gauss_legendre
 
 from conftest import UPRIGHT_UR5 as UPRIGHT
 from conftest import mechanism, spd, upright_ur5_delassus
