@@ -8,7 +8,10 @@ from . import compare, figures, sweep, vibro
 from .contact import PointContact, impact, impact_batch
 from .coulomb import CoulombLaw
 from .errors import (
+    AccuracyWarning,
     FrameNotFoundError,
+    ImpactWarning,
+    NoSeparationWarning,
     ImpactError,
     IntegrationError,
     NameNotFoundError,
@@ -21,7 +24,7 @@ from .errors import (
     RoughnessError,
     ShapeError,
 )
-from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
+from .laws import ImpactLaw, NewtonLaw
 from .mechanism import Mechanism
 from .metric import ContactMetric, local_basis
 from .relief import HeightMap, Profile
@@ -81,7 +84,9 @@ __all__ = [
     "CoulombLaw",
     "ImpactResult",
     "BatchResult",
+    "ImpactWarning",
     "AccuracyWarning",
+    "NoSeparationWarning",
     # Kelvin–Voigt restitution
     "e_from_k",
     "k_from_e",

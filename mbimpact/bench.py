@@ -32,7 +32,8 @@ import numpy as np
 import pinocchio as pin
 
 from .contact import PointContact, impact
-from .laws import AccuracyWarning, ImpactLaw, NewtonLaw
+from .errors import AccuracyWarning
+from .laws import ImpactLaw, NewtonLaw
 from .mechanism import Mechanism
 from .progress import Progress
 from .result import ImpactResult

@@ -1,12 +1,19 @@
-"""The exception tree of mbimpact.
+"""The exception tree of mbimpact, warnings included.
 
 Every error the library raises on bad input derives from :class:`ImpactError`,
 itself a :class:`ValueError`, so ``except ValueError`` keeps working for callers
 that do not care about the details. Messages say what was wrong and what would
-have been valid.
+have been valid. The warnings derive from :class:`ImpactWarning`, which is both an
+:class:`ImpactError` and a :class:`UserWarning`: ``except mbi.ImpactError`` also
+catches them when they are turned into errors.
 """
 
 from __future__ import annotations
+
+import os
+import sys
+import warnings
+from types import FrameType
 
 __all__ = [
     "ImpactError",
@@ -21,6 +28,10 @@ __all__ = [
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",
+    "ImpactWarning",
+    "AccuracyWarning",
+    "NoSeparationWarning",
+    "warn",
 ]
 
 
@@ -70,3 +81,38 @@ class NoFacingFacetError(ImpactError):
 
 class IntegrationError(ImpactError):
     """The time integration of a compliant impact gave up (the message gives the time reached)."""
+
+
+class ImpactWarning(ImpactError, UserWarning):
+    """Root of mbimpact's warnings: a result was computed but is not what was asked for."""
+
+
+class AccuracyWarning(ImpactWarning):
+    """The averaging quadrature stopped before reaching the requested ``rtol``."""
+
+
+class NoSeparationWarning(ImpactWarning):
+    """The averaged outcome (2.8) still approaches the surface: κ < 0.
+
+    The law assumes one micro-impact per facet. A mean contact velocity that still
+    moves into the base surface afterwards means further micro-impacts follow
+    (steep facets at normal incidence, or an oblique impact on an anisotropic W);
+    ``RoughLaw(..., repeat=True)`` applies the law again until the contact separates.
+    """
+
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__))
+
+
+def warn(category: type[ImpactWarning], message: str) -> None:
+    """Issue an mbimpact warning attributed to the first caller outside the package.
+
+    impact, apply, apply_batch and the simulator reach the place that warns at
+    different depths; naming the user's line makes Python's default filter show a
+    warning once per call site.
+    """
+    frame: FrameType | None = sys._getframe(1)
+    level = 2  # stacklevel 2 is the caller of this function
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)

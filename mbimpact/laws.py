@@ -15,18 +15,14 @@ it is written once for a batch of velocities (rows); a single impact is a batch 
 from __future__ import annotations
 
 import math
-import os
-import sys
-import warnings
 from abc import ABC, abstractmethod
-from types import FrameType
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._validate import as_array, as_scalar
-from .errors import NoImpactError, ParameterError, RoughnessError
+from .errors import AccuracyWarning, NoImpactError, NoSeparationWarning, ParameterError, RoughnessError, warn
 from .metric import ContactMetric, local_basis, spread_bound
 from .restitution import e_from_k
 from .result import BatchResult, ImpactResult
@@ -43,21 +39,9 @@ _DEGENERATE = 1e-14
 _BLOCK = 2048
 
 
-class AccuracyWarning(RuntimeWarning):
-    """The averaging quadrature stopped before reaching the requested ``rtol``."""
-
-
-_PACKAGE = os.path.dirname(os.path.abspath(__file__))
-
-
 def warn_accuracy(message: str) -> None:
-    """Issue an :class:`AccuracyWarning` attributed to the first caller outside mbimpact
-    (impact, apply, apply_batch, a scene… reach the quadrature at different depths)."""
-    frame: FrameType | None = sys._getframe(1)
-    level = 2  # stacklevel 2 is the caller of this function
-    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
-        frame, level = frame.f_back, level + 1
-    warnings.warn(message, AccuracyWarning, stacklevel=level)
+    """Issue an :class:`AccuracyWarning` at the user's line."""
+    warn(AccuracyWarning, message)
 
 
 def _restitution(e: float | None, k: float | None) -> float:
@@ -165,7 +149,7 @@ class ImpactLaw(ABC):
         u = metric.J @ v
         P, err, nodes = self.impulse_for(metric, u, R)
         dv = metric.AinvJt @ P
-        return ImpactResult(
+        result = ImpactResult(
             v_minus=v.copy(),
             v_plus=v + dv,
             dv=dv,
@@ -179,6 +163,10 @@ class ImpactLaw(ABC):
             error_estimate=err,
             nodes=nodes,
         )
+        if not result.separates:
+            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
+                 f"(kappa = {result.kappa:.6g} < 0); further micro-impacts follow: use repeat=True to apply them")
+        return result
 
     def impulse_for(
         self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]
@@ -219,10 +207,16 @@ class ImpactLaw(ABC):
         R = local_basis(frame, metric.d)
         P, U, err, nodes = self._impulses(metric, V, R)
         dV = P @ metric.AinvJt.T
-        return BatchResult(
+        result = BatchResult(
             V_minus=V.copy(), V_plus=V + dV, dV=dV, P=P, U_minus=U, U_plus=U + P @ metric.W,
             n0=R[:, -1].copy(), A=metric.A, J=metric.J, law=self, error_estimate=err, nodes=nodes,
         )
+        approaching = np.flatnonzero(~result.separates)
+        if approaching.size:
+            warn(NoSeparationWarning, f"{self!r}: {approaching.size} of {len(V)} contacts still approach the surface "
+                 f"after the impact (kappa < 0, e.g. row {approaching[0]}); further micro-impacts follow: "
+                 "use repeat=True to apply them")
+        return result
 
     def _impulses(
         self, metric: ContactMetric, V: NDArray[np.float64], R: NDArray[np.float64]

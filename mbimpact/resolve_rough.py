@@ -51,13 +51,14 @@ def resolve_rough(
     *,
     samples: int = 200,
     seed: int = 0,
-    flux: Literal["metric", "contact"] = "metric",
+    flux: Literal["physical", "configuration"] = "physical",
     **kwargs: object,
 ) -> RoughResolved:
     """Draw facets from ``roughness``, resolve each impact in time, average with (2.7).
 
     Facets are drawn from P; each facing facet's resolved velocity jump is
-    weighted by its flux (N, v₋) (``"metric"``) or mᵀu (``"contact"``), as in
+    weighted by the contact point's sweep rate −mᵀu (``"physical"``) or its A-metric flux
+    −(N, v₋) (``"configuration"``), as in
     (2.8). Keyword arguments go to :func:`resolve` (M, k or e, dynamics, ...).
     """
     if roughness.dim != 3:
@@ -80,7 +81,7 @@ def resolve_rough(
             jumps.append(np.zeros(mech.nv))
             continue
         res = resolve(mech, q0, v0, contact, m, **kwargs)  # type: ignore[arg-type]
-        weights.append(-s / math.sqrt(float(mw @ W @ mw)) if flux == "metric" else -s)
+        weights.append(-s / math.sqrt(float(mw @ W @ mw)) if flux == "configuration" else -s)
         jumps.append(res.dv)
     w = np.array(weights)
     if not w.sum() > 0:

@@ -8,7 +8,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ImpactResult", "BatchResult"]
+__all__ = ["ImpactResult", "BatchResult", "SEPARATION_RTOL"]
+
+#: A contact separates when n⁰·u₊ ≥ −SEPARATION_RTOL |u₋|: a plastic impact (e = 0) leaves
+#: n⁰·u₊ at rounding level, which must not count as still approaching.
+SEPARATION_RTOL = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +89,15 @@ class ImpactResult:
     def kappa(self) -> float:
         """Newton's restitution −(n⁰·u₊)/(n⁰·u₋), (1.2); may exceed 1 (4°)."""
         return -float(self.n0 @ self.u_plus) / float(self.n0 @ self.u_minus)
+
+    @property
+    def separates(self) -> bool:
+        """Whether the contact point leaves the surface, n⁰·u₊ ≥ 0 (up to :data:`SEPARATION_RTOL`).
+
+        False when the averaged outcome (2.8) still approaches (κ < 0): further
+        micro-impacts follow (``RoughLaw(..., repeat=True)`` applies them).
+        """
+        return float(self.n0 @ self.u_plus) >= -SEPARATION_RTOL * float(np.linalg.norm(self.u_minus))
 
     @property
     def energy_loss(self) -> float:
@@ -173,6 +186,13 @@ class BatchResult:
         """Newton restitutions −(n⁰·u₊)/(n⁰·u₋), shape (B,)."""
         n0 = self.n0 if self.n0.ndim == 2 else self.n0[None, :]
         return -np.sum(self.U_plus * n0, axis=1) / np.sum(self.U_minus * n0, axis=1)
+
+    @property
+    def separates(self) -> NDArray[np.bool_]:
+        """Whether each contact leaves the surface (see :attr:`ImpactResult.separates`), shape (B,)."""
+        n0 = self.n0 if self.n0.ndim == 2 else self.n0[None, :]
+        un = np.sum(self.U_plus * n0, axis=1)
+        return un >= -SEPARATION_RTOL * np.linalg.norm(self.U_minus, axis=1)
 
     @property
     def energy_loss(self) -> NDArray[np.float64]:

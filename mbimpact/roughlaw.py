@@ -19,6 +19,7 @@ from .laws import (
     warn_accuracy,
 )
 from .metric import eigen_ratio, spread_bound
+from .result import SEPARATION_RTOL
 from .ring import ring_expansion
 from .roughness import Cone, Roughness, Rule
 from .slopes import IsotropicSlopes
@@ -37,6 +38,11 @@ _EPS = float(np.finfo(float).eps)
 _GRADED_SLOPE_ROWS = 4
 # A Cone's rule is graded towards the peaks of 1/mᵀWm when they are narrower than this (radians).
 _PEAKED = 0.15
+# repeat=True: at most this many applications of (2.8); a direction that comes back to within
+# this (1 − cos) after one or two impacts, with a shrinking speed, has settled: the contact stops.
+_MAX_REPEATS = 2000
+_SETTLED = 1e-12
+_SEPARATION = SEPARATION_RTOL
 
 
 class RoughLaw(ImpactLaw):
@@ -59,10 +65,16 @@ class RoughLaw(ImpactLaw):
         Facet restitution in [0, 1].
     k : float, optional
         Kelvin–Voigt damping ratio in [0, 1] instead of ``e``; exactly one.
-    flux : {"metric", "contact"}
-        Weight of a facet: the paper's A-metric flux (N_m, v) = mᵀu / sqrt(mᵀWm)
-        ("metric", default) or the projected-area flux mᵀu of the contact point
-        ("contact", THEORY §5). They agree when W ∝ I (a point mass).
+    flux : {"physical", "configuration"}
+        Weight of a facet in (2.7). ``"physical"`` (default): pᵢ (−mᵢᵀu), the rate
+        at which the contact point, moving along u = J v, sweeps facet i of a
+        physical surface whose measure P is a share of true physical area — what
+        (2.7) becomes when P is moved into configuration space, where a physical
+        facet's A-metric area is its physical area times √(mᵀWm).
+        ``"configuration"``: pᵢ (−(N_i, v)) = pᵢ (−mᵢᵀu)/√(mᵢᵀWmᵢ), the paper's
+        (2.7) read literally, valid only when the roughness measure is defined on
+        configuration-space area (e.g. J = I). The two coincide when W ∝ I (a
+        point mass).
     method : {"quadrature", "mc"}
         "quadrature" (default) uses the measure's rule with G* handled exactly;
         "mc" averages over ``samples`` facets drawn from P with ``seed`` (the naive
@@ -82,6 +94,16 @@ class RoughLaw(ImpactLaw):
         issued if ``rtol`` was not reached); default: the measure's ``node_limit``.
     samples, seed : int
         Monte Carlo sample count and seed (``method="mc"``).
+    repeat : bool
+        The model assumes one micro-impact per facet. When the averaged outcome
+        still approaches the surface (κ < 0: steep facets at normal incidence, or
+        an oblique impact on an anisotropic W), further micro-impacts follow. With
+        ``repeat=True`` the law is applied again to the new contact velocity, with
+        the same W, until the contact separates; once the velocity's direction has
+        settled (a fixed direction or a two-cycle between the walls of a valley, along
+        which the velocity shrinks geometrically), the limit is the impulse that stops
+        the contact point, P = −W⁺ u₋. Default False: one application, and a
+        :class:`NoSeparationWarning` when the contact still approaches.
 
     Notes
     -----
@@ -118,21 +140,25 @@ class RoughLaw(ImpactLaw):
         e: float | None = None,
         *,
         k: float | None = None,
-        flux: Literal["metric", "contact"] = "metric",
+        flux: Literal["physical", "configuration"] = "physical",
         method: Literal["quadrature", "mc"] = "quadrature",
         rtol: float = 1e-12,
         nodes: int | None = None,
         max_nodes: int | None = None,
         samples: int = 10_000,
         seed: int = 0,
+        repeat: bool = False,
     ) -> None:
         if not isinstance(roughness, Roughness):
             raise RoughnessError(
                 "roughness must be a Roughness measure (Smooth, Sawtooth, Cone, Facets, ...), "
                 f"got {type(roughness).__name__}"
             )
-        if flux not in ("metric", "contact"):
-            raise ParameterError(f"flux must be 'metric' or 'contact', got {flux!r}")
+        if flux not in ("physical", "configuration"):
+            raise ParameterError(
+                f"flux must be 'physical' (the contact point's sweep rate, default) or 'configuration' "
+                f"(the A-metric flux, for a measure on configuration-space area), got {flux!r}"
+            )
         if method not in ("quadrature", "mc"):
             raise ParameterError(f"method must be 'quadrature' or 'mc', got {method!r}")
         self.roughness = roughness
@@ -151,15 +177,20 @@ class RoughLaw(ImpactLaw):
             raise ParameterError(f"samples must be ≥ 2, got {samples}")
         self.samples = int(samples)
         self.seed = int(seed)
+        if not isinstance(repeat, bool):
+            raise ParameterError(f"repeat must be True or False, got {repeat!r}")
+        self.repeat = repeat
         if method == "mc":
             roughness.sample(np.random.default_rng(0), 2)  # fail now if it cannot be sampled
 
     def __repr__(self) -> str:
-        extra = "" if self.flux == "metric" else f", flux={self.flux!r}"
+        extra = "" if self.flux == "physical" else f", flux={self.flux!r}"
         if self.method == "mc":
             extra += f", method='mc', samples={self.samples}"
         elif self.nodes is not None:
             extra += f", nodes={self.nodes}"
+        if self.repeat:
+            extra += ", repeat=True"
         return f"RoughLaw({self.roughness!r}, e={self.e:g}{extra})"
 
     @property
@@ -181,7 +212,7 @@ class RoughLaw(ImpactLaw):
             q = np.einsum("bkd,bkd->bk", m @ W, m)  # (m W)·m: much faster than a 3-operand einsum
         facing = (s < 0.0) & (q > _DEGENERATE * np.trace(W)) & (p > 0.0)
         safe_q = np.where(facing, q, 1.0)
-        flux = np.where(facing, -s / np.sqrt(safe_q) if self.flux == "metric" else -s, 0.0)
+        flux = np.where(facing, -s / np.sqrt(safe_q) if self.flux == "configuration" else -s, 0.0)
         return p * flux, np.where(facing, -s / safe_q, 0.0), m
 
     def _average(self, W: NDArray[np.float64], U: NDArray[np.float64], nodes: int, rule: Rule | None = None
@@ -257,6 +288,61 @@ class RoughLaw(ImpactLaw):
     def contact_impulses(
         self, W: NDArray[np.float64], U: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+        P, err, nodes = self._once(W, U)
+        if not self.repeat:
+            return P, err, nodes
+        return self._repeated(W, U, P, err, nodes)
+
+    def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], P: NDArray[np.float64],
+                  err: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+        """Apply (2.8) again to the rows whose contact still approaches, until it separates.
+
+        (2.8) is positively homogeneous of degree 1, so the micro-impacts either throw the
+        contact off after finitely many of them, or their directions settle into a fixed
+        direction or a two-cycle (bouncing between the walls of a valley) along which
+        u_{k+p} = ρ u_k with ρ < 1: the velocities then shrink geometrically to u = 0, and
+        the limit of the impulses is the one that stops the contact point, P = −W⁺ u₋."""
+        total, err = P.copy(), err.copy()
+        B, d = U.shape
+        u = U + P @ W  # W is symmetric
+        dirs = np.full((2, B, d), np.nan)  # the last two directions of each row, oldest first
+        speeds = np.ones((2, B))
+        todo = np.flatnonzero(u[:, -1] < -_SEPARATION)  # U is unit
+        for _ in range(_MAX_REPEATS):
+            if not todo.size:
+                return total, err, nodes
+            speed = np.linalg.norm(u[todo], axis=1)
+            direction = u[todo] / speed[:, None]
+            stuck = np.zeros(len(todo), dtype=bool)
+            for period in (1, 2):
+                rho = speed / speeds[2 - period, todo]
+                stuck |= (np.einsum("bd,bd->b", direction, dirs[2 - period, todo]) > 1.0 - _SETTLED) & (rho < 1.0)
+            if stuck.any():
+                rows = todo[stuck]
+                total[rows] = -np.linalg.lstsq(W, U[rows].T, rcond=1e-12)[0].T  # u₋ + W P = 0
+                u[rows] = 0.0
+                todo = todo[~stuck]
+                speed, direction = speed[~stuck], direction[~stuck]
+                if not todo.size:
+                    return total, err, nodes
+            Pk, err_k, nodes_k = self._once(W, direction)
+            Pk *= speed[:, None]
+            nodes = max(nodes, nodes_k)
+            err[todo] = np.maximum(err[todo], err_k)
+            total[todo] += Pk
+            u[todo] += Pk @ W
+            dirs[0, todo], dirs[1, todo] = dirs[1, todo], direction
+            speeds[0, todo], speeds[1, todo] = speeds[1, todo], speed
+            todo = todo[u[todo, -1] < -_SEPARATION]
+        if todo.size:
+            warn_accuracy(f"{self!r}: the contact still approaches after {_MAX_REPEATS} repeated impacts "
+                          f"(n0·u = {u[todo[0], -1]:.3g} for a unit approach)")
+        return total, err, nodes
+
+    def _once(
+        self, W: NDArray[np.float64], U: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+        """One application of (2.8) to unit local-frame velocities U (B, d)."""
         if self.method == "mc":
             P, err = self._monte_carlo(W, U)
             return P, err, self.samples
@@ -265,13 +351,13 @@ class RoughLaw(ImpactLaw):
             P, facets = self._average(W, U, 1)
             return P, np.zeros(len(U)), facets
         if self.nodes is None and len(U) >= _RING_ROWS and isinstance(rough, Cone) and rough.alpha > 0.0:
-            ring = ring_expansion(rough.alpha, W, self.flux == "metric")
+            ring = ring_expansion(rough.alpha, W, self.flux == "configuration")
             if ring is not None:
                 # truncation plus the rounding of a sum of `degree` terms
                 bound = (ring.tail + _EPS) * ring.degree
                 return self._quotient(*ring.integrals(U), U, bound, 2 * ring.degree + 1)
         if self.nodes is None and isinstance(rough, IsotropicSlopes) and rough.dim == 3:
-            table = tilt_table(rough, W, self.flux == "metric", build=len(U) >= _TABLE_ROWS)
+            table = tilt_table(rough, W, self.flux == "configuration", build=len(U) >= _TABLE_ROWS)
             if table is not None:
                 bound = table.tail + _EPS * table.terms
                 return self._quotient(*table.integrals(U), U, bound, 2 * table.degree + 1)
@@ -293,7 +379,7 @@ class RoughLaw(ImpactLaw):
         n = self.roughness.initial_nodes
         if 2 * n > self.max_nodes:
             return None
-        pair = cone_pair(self.roughness.alpha, W, u, n, self.flux == "metric", _DEGENERATE)  # type: ignore[attr-defined]
+        pair = cone_pair(self.roughness.alpha, W, u, n, self.flux == "configuration", _DEGENERATE)  # type: ignore[attr-defined]
         if pair is None or not pair[1].min() > 0.0:
             return None
         P = (1.0 + self.e) * pair[0] / pair[1][:, None]

@@ -11,7 +11,7 @@ from conftest import mechanism
 @pytest.mark.parametrize(
     "law",
     [mbi.NewtonLaw(0.3), mbi.RoughLaw(mbi.Cone(0.4), 0.6), mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.2),
-     mbi.RoughLaw(mbi.Cone(0.4), 0.6, method="mc", samples=500), mbi.RoughLaw(mbi.Cone(0.4), 0.6, flux="contact")],
+     mbi.RoughLaw(mbi.Cone(0.4), 0.6, method="mc", samples=500), mbi.RoughLaw(mbi.Cone(0.4), 0.6, flux="physical")],
     ids=repr,
 )
 def test_apply_batch_rows_equal_apply(law, rng, monkeypatch):

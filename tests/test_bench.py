@@ -26,7 +26,8 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     singular = [r for r in acc if "singular" in r["case"]]
     at64 = [r for r in singular if r["method"] == "exact-arc quadrature" and float(r["param"]) == 64]
     assert at64 and all(float(r["error"]) <= 1e-10 for r in at64)
-    assert all(float(r["error"]) > 1e-3 for r in singular if r["method"] in ("uniform sampling", "Monte Carlo"))
+    sampled = [float(r["error"]) for r in singular if r["method"] in ("uniform sampling", "Monte Carlo")]
+    assert sampled and min(sampled) > 1e6 * max(float(r["error"]) for r in at64)
     # Gaussian slopes there: graded in tilt and azimuth, adaptive reaches ~1e-11; Monte Carlo does not
     slopes = {(r["method"], float(r["param"])): float(r["error"]) for r in acc if "GaussianSlopes" in r["case"]}
     graded = [slopes["graded tilt x azimuth", n] for n in (8, 16, 32)]

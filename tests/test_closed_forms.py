@@ -82,7 +82,7 @@ def test_cone_matches_corrected_2_10(alpha, e, speed, azimuth, frac):
     np.testing.assert_allclose(res.dv, isotropic_dv(alpha, e, v), rtol=1e-10, atol=1e-12 * speed)
 
 
-def cone_reference(alpha, e, W, u, flux="metric"):
+def cone_reference(alpha, e, W, u, flux="physical"):
     """(2.8) for a cone by adaptive scipy quadrature, boundaries of G* found by root finding."""
     sa, ca = math.sin(alpha), math.cos(alpha)
 
@@ -102,7 +102,7 @@ def cone_reference(alpha, e, W, u, flux="metric"):
         sv, qv = mm @ u, mm @ W @ mm
         if sv >= 0:
             return np.zeros(4)
-        w = -sv / math.sqrt(qv) if flux == "metric" else -sv
+        w = -sv / math.sqrt(qv) if flux == "configuration" else -sv
         return np.concatenate([[w], w * (-sv / qv) * mm])
 
     tot = np.zeros(4)
@@ -114,7 +114,7 @@ def cone_reference(alpha, e, W, u, flux="metric"):
     return (1 + e) * tot[1:] / tot[0]
 
 
-@pytest.mark.parametrize("flux", ["metric", "contact"])
+@pytest.mark.parametrize("flux", ["configuration", "physical"])
 @pytest.mark.parametrize("alpha", [0.05, 0.4, 1.0, 1.45])
 @pytest.mark.parametrize("beta", [0.0, 0.3, 1.0, 1.4, 1.5607])
 def test_cone_accuracy_every_regime(alpha, beta, flux, rng):

@@ -13,7 +13,7 @@ from mbimpact.cone_pair import cone_pair
 from conftest import mechanism, relative_du, spd, unit_velocities
 
 
-@given(st.integers(0, 2**32 - 1), st.floats(0.01, 1.55), st.sampled_from(["metric", "contact"]),
+@given(st.integers(0, 2**32 - 1), st.floats(0.01, 1.55), st.sampled_from(["configuration", "physical"]),
        st.floats(1.0, 30.0))
 def test_single_velocity_shortcut_equals_the_general_rule(seed, alpha, flux, cond):
     """Same nodes (periodic trapezoid on the full ring, Gauss–Legendre on the arc), same result;
@@ -22,7 +22,7 @@ def test_single_velocity_shortcut_equals_the_general_rule(seed, alpha, flux, con
     W = spd(rng, 3, cond)
     law = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux)
     for u in unit_velocities(rng, 9):
-        N, D = cone_pair(alpha, W, u, 32, flux == "metric", 1e-14)
+        N, D = cone_pair(alpha, W, u, 32, flux == "configuration", 1e-14)
         P = 1.5 * N / D[:, None]
         general, _ = law._average_levels(W, u[None], (32, 64))
         # the same sums in another order: rounding, which grows with cond W

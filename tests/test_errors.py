@@ -13,9 +13,14 @@ LAW2 = mbi.RoughLaw(mbi.Sawtooth(0.3), 0.5)
 
 
 def test_tree_is_rooted_in_value_error():
-    for name in mbi.errors.__all__:
-        cls = getattr(mbi, name)
+    classes = [getattr(mbi.errors, name) for name in mbi.errors.__all__ if isinstance(getattr(mbi.errors, name), type)]
+    assert len(classes) >= 15
+    for cls in classes:
+        assert getattr(mbi, cls.__name__) is cls
         assert issubclass(cls, mbi.ImpactError) and issubclass(cls, ValueError)
+    # the warnings are in the tree too, and are real warnings
+    for cls in (mbi.ImpactWarning, mbi.AccuracyWarning, mbi.NoSeparationWarning):
+        assert issubclass(cls, Warning) and issubclass(cls, mbi.ImpactError)
 
 
 @pytest.mark.parametrize(

@@ -32,10 +32,10 @@ def upright_ur5():
     return mech, J, mech.mass_matrix(UPRIGHT)
 
 
-def reference(alpha, e, W, u, flux="metric"):
+def reference(alpha, e, W, u, flux="physical"):
     """(2.8) by adaptive scipy.quad, told where the kernels peak."""
     s, c = math.sin(alpha), math.cos(alpha)
-    gamma, delta = (1.5, 0.5) if flux == "metric" else (1.0, 0.0)
+    gamma, delta = (1.5, 0.5) if flux == "configuration" else (1.0, 0.0)
 
     def kernel(phi, j):
         m = np.array([s * math.cos(phi), s * math.sin(phi), c])
@@ -78,18 +78,19 @@ def test_near_singular_posture_converges_with_few_nodes(alpha, u):
 
 
 def test_uniform_rule_needs_far_more_nodes_there():
-    """What the grading buys: 20 000 plain nodes are still off by ~1e-6."""
+    """What the grading buys: 20 000 plain nodes are still off by ~1e-6 with the configuration weight
+    (whose kernels peak hardest, like q^(-3/2))."""
     mech, J, A = upright_ur5()
     metric = mbi.ContactMetric.from_arrays(A, J)
     W = metric.W
     u = np.array([0.2, 0.1, -1.0]) / np.linalg.norm([0.2, 0.1, -1.0])
-    ref = reference(0.3, 0.5, W, u)
+    ref = reference(0.3, 0.5, W, u, "configuration")
     phi = 2 * math.pi * np.arange(20_000) / 20_000  # the whole cone faces u: the periodic trapezoid rule
     ring = mbi.Facets(np.column_stack([math.sin(0.3) * np.cos(phi), math.sin(0.3) * np.sin(phi),
                                        np.full(phi.size, math.cos(0.3))]))
-    plain, _, _ = mbi.RoughLaw(ring, 0.5).contact_impulses(W, u[None])
+    plain, _, _ = mbi.RoughLaw(ring, 0.5, flux="configuration").contact_impulses(W, u[None])
     assert np.linalg.norm((plain[0] - ref) @ W) > 1e-7 * np.linalg.norm(ref @ W)
-    graded, _, _ = mbi.RoughLaw(mbi.Cone(0.3), 0.5, nodes=64).contact_impulses(W, u[None])
+    graded, _, _ = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux="configuration", nodes=64).contact_impulses(W, u[None])
     assert np.linalg.norm((graded[0] - ref) @ W) < 1e-9 * np.linalg.norm(ref @ W)
 
 
@@ -128,7 +129,7 @@ def test_graded_rule_integrates_the_measure_of_the_facing_arc(beta):
 # ---------------------------------------------------------------- tilt densities
 
 
-def composite_slopes_reference(measure, e, W, u, panels=3000):
+def composite_slopes_reference(measure, e, W, u, flux="physical", panels=3000):
     """(2.8) for a tilt density by brute force in the tilt: uniform Gauss–Legendre panels,
     no grading, no hints; each ring by the graded azimuth rule (checked against scipy above)."""
     lo, hi = measure.support
@@ -140,7 +141,8 @@ def composite_slopes_reference(measure, e, W, u, panels=3000):
     m, w = m[0], (w[0].reshape(tilt.shape[1], -1) * dtilt[:, None]).ravel()
     s, q = m @ u, np.einsum("ki,ij,kj->k", m, W, m)
     f = (s < 0) & (w > 0)
-    return (1 + e) * ((w[f] * s[f] ** 2 / q[f] ** 1.5) @ m[f]) / (w[f] @ (-s[f] / np.sqrt(q[f])))
+    g = np.sqrt(q[f]) if flux == "configuration" else np.ones(f.sum())  # the configuration weight divides by √q
+    return (1 + e) * ((w[f] * s[f] ** 2 / (q[f] * g)) @ m[f]) / (w[f] @ (-s[f] / g))
 
 
 def w_error(P, ref, W):
@@ -148,22 +150,24 @@ def w_error(P, ref, W):
     return np.linalg.norm((P - ref) @ W) / np.linalg.norm(ref @ W)
 
 
+@pytest.mark.parametrize("flux", ["physical", "configuration"])
 @pytest.mark.parametrize("u", [[1.0, 0.3, -0.2], [0.0, 1.0, -0.3]], ids=["oblique", "along-valley"])
-def test_gaussian_slopes_at_a_near_singular_posture(u):
+def test_gaussian_slopes_at_a_near_singular_posture(u, flux):
     """W spans 1e7: 1/mᵀWm has a valley across the sphere and a point peak; tilt and azimuth are graded."""
     W = upright_ur5_delassus()
     u = np.array(u) / np.linalg.norm(u)
     measure = mbi.GaussianSlopes(0.3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.AccuracyWarning)  # rounding-limited near 1e-11: it says so
-        P, est, nodes = mbi.RoughLaw(measure, 0.5).contact_impulses(W, u[None])
-        fine, _, _ = mbi.RoughLaw(measure, 0.5, nodes=256).contact_impulses(W, u[None])
+        P, est, nodes = mbi.RoughLaw(measure, 0.5, flux=flux).contact_impulses(W, u[None])
+        fine, _, _ = mbi.RoughLaw(measure, 0.5, flux=flux, nodes=256).contact_impulses(W, u[None])
     assert nodes <= 128
-    assert w_error(P[0], composite_slopes_reference(measure, 0.5, W, u), W) < 1e-9
+    assert w_error(P[0], composite_slopes_reference(measure, 0.5, W, u, flux), W) < 1e-9
     assert w_error(P[0], fine[0], W) <= 10 * est[0] + 1e-10  # the estimate is honest
-    # what the grading buys: the plain tilt × azimuth product rule is off by O(1) at 256 nodes
-    plain = mbi.RoughLaw(measure, 0.5)._average(W, u[None], 256)[0][0]
-    assert w_error(plain, fine[0], W) > 1e-3
+    # what the grading buys: the plain tilt × azimuth product rule is far off at 256 nodes
+    # (O(1) for the configuration weight, whose kernels peak like q^(-3/2))
+    plain = mbi.RoughLaw(measure, 0.5, flux=flux)._average(W, u[None], 256)[0][0]
+    assert w_error(plain, fine[0], W) > (1e-3 if flux == "configuration" else 1e-6)
 
 
 def test_ring_minima_many_matches_the_scalar_search(rng):
@@ -211,7 +215,7 @@ def test_peak_tilts_of_a_rank_one_delassus_matrix():
     np.testing.assert_allclose(eps[0, 1:], 1e-4, rtol=1e-6)  # sqrt(δ / λ)
 
 
-def planar_slopes_reference(measure, e, W, u):
+def planar_slopes_reference(measure, e, W, u, flux="physical"):
     """(2.8) for a planar tilt density by scipy.quad on each side, told where the kernels peak."""
     lo, hi = measure.support
     vec = np.linalg.eigh(W)[1]
@@ -224,7 +228,8 @@ def planar_slopes_reference(measure, e, W, u):
             su, q = m @ u, m @ W @ m
             if su >= 0:
                 return 0.0
-            return (su * su * m[j] / q**1.5 if j < 2 else -su / math.sqrt(q)) * measure._density(np.array([a]))[0]
+            g = math.sqrt(q) if flux == "configuration" else 1.0  # the configuration weight divides by √q
+            return (su * su * m[j] / (q * g) if j < 2 else -su / g) * measure._density(np.array([a]))[0]
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", integrate.IntegrationWarning)  # roundoff near 1e-9: cond(W) = 1e8
@@ -233,9 +238,10 @@ def planar_slopes_reference(measure, e, W, u):
     return (1 + e) * total[:2] / total[2]
 
 
+@pytest.mark.parametrize("flux", ["physical", "configuration"])
 @pytest.mark.parametrize("theta", [1.0, -1.0, 2.5])
 @pytest.mark.parametrize("u", [[0.5, -1.0], [-0.3, -1.0]])
-def test_planar_gaussian_slopes_with_a_nearly_singular_delassus_matrix(theta, u):
+def test_planar_gaussian_slopes_with_a_nearly_singular_delassus_matrix(theta, u, flux):
     """W = R diag(1e-8, 1) Rᵀ: 1/mᵀWm peaks (width 1e-4) at the tilt of the least eigenvector."""
     R = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
     W = R @ np.diag([1e-8, 1.0]) @ R.T
@@ -243,11 +249,11 @@ def test_planar_gaussian_slopes_with_a_nearly_singular_delassus_matrix(theta, u)
     measure = mbi.GaussianSlopes(0.3, dim=2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.AccuracyWarning)  # rounding, amplified by cond(W) = 1e8: it says so
-        P = mbi.RoughLaw(measure, 0.5).contact_impulses(W, u[None])[0]
-    ref = planar_slopes_reference(measure, 0.5, W, u)
+        P = mbi.RoughLaw(measure, 0.5, flux=flux).contact_impulses(W, u[None])[0]
+    ref = planar_slopes_reference(measure, 0.5, W, u, flux)
     # the rule converges geometrically; what is left is rounding amplified by |W||P|/|WP| ~ 1e6
     assert w_error(P[0], ref, W) < 1e-7
-    plain = mbi.RoughLaw(measure, 0.5)._average(W, u[None], 256)[0][0]
+    plain = mbi.RoughLaw(measure, 0.5, flux=flux)._average(W, u[None], 256)[0][0]
     assert w_error(plain, ref, W) > 1e3 * w_error(P[0], ref, W)
 
 
@@ -303,7 +309,7 @@ def test_accuracy_warning_points_at_the_callers_line():
     """Whatever the entry point (impact, apply, apply_batch), the warning names the user's line."""
     mech, J, A = upright_ur5()
     v = np.linalg.lstsq(J, [0.2, 0.1, -1.0], rcond=None)[0]
-    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, rtol=1e-15)  # below the rounding this contact allows
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux="configuration", rtol=1e-15)  # below the rounding this contact allows
     calls = [lambda: mbi.impact(mech, UPRIGHT, v, mbi.PointContact("tool0"), law),
              lambda: law.apply(A, J, v, [0, 0, 1]),
              lambda: law.apply_batch(A, J, np.array([v, 2 * v]), [0, 0, 1])]

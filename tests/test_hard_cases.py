@@ -23,7 +23,7 @@ def sound(res, cond=1.0):
 
 
 LAWS3 = [mbi.NewtonLaw(0.5), mbi.RoughLaw(mbi.Cone(0.5), 0.5), mbi.RoughLaw(mbi.GaussianSlopes(0.4), 0.5),
-         mbi.RoughLaw(mbi.Cone(0.5), 0.5, flux="contact")]
+         mbi.RoughLaw(mbi.Cone(0.5), 0.5, flux="physical")]
 
 
 @pytest.mark.parametrize("ratio", [1e-3, 1e-6, 1e-9, 1e-12])
@@ -184,7 +184,7 @@ def _robot_case(name, seed):
     J = mech.point_jacobian(q, contact.frame)
     v = approaching(J, rng.normal(size=mech.nv) * 10 ** rng.uniform(-4, 4), contact.normal)
     law = mbi.RoughLaw(_random_rough(rng, 3), float(rng.uniform(0, 1)),
-                       flux=str(rng.choice(["metric", "contact"])))  # type: ignore[arg-type]
+                       flux=str(rng.choice(["configuration", "physical"])))  # type: ignore[arg-type]
     try:
         with warnings.catch_warnings():  # a nearly singular W may stop the quadrature early: flagged, still sound
             warnings.simplefilter("ignore", mbi.AccuracyWarning)

@@ -32,7 +32,7 @@ def random_problem(seed: int, d: int | None = None):
     return rng, A, J, v, n0, rough
 
 
-def rough_law(rough, rng, flux="metric"):
+def rough_law(rough, rng, flux="physical"):
     return mbi.RoughLaw(rough, float(rng.uniform(0, 1)), flux=flux)
 
 
@@ -47,7 +47,7 @@ def apply(law, A, J, v, n0):
     return res
 
 
-@given(seeds, st.sampled_from(["metric", "contact"]))
+@given(seeds, st.sampled_from(["configuration", "physical"]))
 def test_energy_never_grows(seed, flux):
     rng, A, J, v, n0, rough = random_problem(seed)
     try:
@@ -74,7 +74,7 @@ def test_homogeneous_of_degree_one(seed, scale):
     assert scaled.mu == pytest.approx(base.mu, rel=1e-9, abs=1e-12)
 
 
-@given(seeds, st.sampled_from(["metric", "contact"]))
+@given(seeds, st.sampled_from(["configuration", "physical"]))
 def test_independent_of_generalised_coordinates(seed, flux):
     """Coordinates x = T y: A' = TᵀAT, J' = JT, v' = T⁻¹v give the same motion, T v'₊ = v₊."""
     rng, A, J, v, n0, rough = random_problem(seed)
@@ -183,12 +183,12 @@ def test_5_no_microrelief_is_newton(seed):
 
 def test_flux_modes_agree_for_point_mass_and_differ_otherwise(rng):
     v = np.array([0.8, 0.3, -1.0])
-    laws = [mbi.RoughLaw(mbi.Cone(0.5), 0.5, flux=f) for f in ("metric", "contact")]
+    laws = [mbi.RoughLaw(mbi.Cone(0.5), 0.5, flux=f) for f in ("configuration", "physical")]
     a, b = (law.apply(2.0 * np.eye(3), np.eye(3), v, [0, 0, 1]) for law in laws)
     np.testing.assert_allclose(a.v_plus, b.v_plus, rtol=1e-13)
     A = np.diag([1.0, 1.0, 1.0 / 12.0])  # planar rod, contact at one end
     J = np.array([[1.0, 0.0, 0.3], [0.0, 1.0, 0.4]])  # tilted rod: W has off-diagonal terms
-    laws = [mbi.RoughLaw(mbi.Sawtooth(0.5), 0.5, flux=f) for f in ("metric", "contact")]
+    laws = [mbi.RoughLaw(mbi.Sawtooth(0.5), 0.5, flux=f) for f in ("configuration", "physical")]
     a, b = (law.apply(A, J, [0.5, -1.0, 0.0], [0, 1]) for law in laws)
     assert np.linalg.norm(a.v_plus - b.v_plus) > 1e-3
 

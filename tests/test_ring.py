@@ -14,7 +14,7 @@ from mbimpact.ring import ring_expansion
 from conftest import ROBOTS, last_frame, mechanism, relative_du, spd, unit_velocities, upright_ur5_delassus
 
 
-@given(st.integers(0, 2**32 - 1), st.floats(0.05, 1.5), st.sampled_from(["metric", "contact"]),
+@given(st.integers(0, 2**32 - 1), st.floats(0.05, 1.5), st.sampled_from(["configuration", "physical"]),
        st.floats(1.0, 1e3))
 def test_ring_expansion_equals_exact_arc_quadrature(seed, alpha, flux, cond):
     rng = np.random.default_rng(seed)
@@ -25,9 +25,9 @@ def test_ring_expansion_equals_exact_arc_quadrature(seed, alpha, flux, cond):
         warnings.simplefilter("always", mbi.AccuracyWarning)
         P, err, _ = law.contact_impulses(W, U)  # ≥ 32 rows: the ring path (or its fallback)
     # only a fallback quadrature limited by rounding (strongly anisotropic W) may warn, and says by how much
-    assert not caught or (ring_expansion(alpha, W, flux == "metric") is None and err.max() > law.rtol)
+    assert not caught or (ring_expansion(alpha, W, flux == "configuration") is None and err.max() > law.rtol)
     if cond <= 100:  # beyond, strongly anisotropic W may need the graded quadrature instead
-        assert ring_expansion(alpha, W, flux == "metric") is not None
+        assert ring_expansion(alpha, W, flux == "configuration") is not None
     ref, _, _ = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux, nodes=1024).contact_impulses(W, U[:31].copy())
     assert relative_du(P[:31], ref, W).max() < max(1e-12, 1e-14 * cond)  # rounding grows with cond W
     assert np.all(err < 1e-11)  # truncation + rounding of up to 1024 terms
@@ -90,7 +90,7 @@ def test_batch_paths_are_homogeneous_of_degree_one(scale, rough):
                                rtol=1e-12, atol=1e-12 * scale * np.abs(base).max())
 
 
-@given(st.sampled_from(ROBOTS), st.integers(0, 2**32 - 1), st.floats(0.05, 1.4), st.sampled_from(["metric", "contact"]))
+@given(st.sampled_from(ROBOTS), st.integers(0, 2**32 - 1), st.floats(0.05, 1.4), st.sampled_from(["configuration", "physical"]))
 def test_batch_equals_single_impacts_on_robots(robot, seed, alpha, flux):
     """Random example-robot-data configurations: the ring path of a batch equals single impacts."""
     mech = mechanism(robot)

@@ -28,14 +28,14 @@ MEASURES = {
 
 @settings(max_examples=8)  # each example builds a table (~0.3–1 s)
 @given(st.integers(0, 2**32 - 1), st.sampled_from(sorted(MEASURES)), st.floats(0.0, 1.0),
-       st.sampled_from(["metric", "contact"]), st.floats(1.0, 30.0))
+       st.sampled_from(["configuration", "physical"]), st.floats(1.0, 30.0))
 def test_table_equals_the_adaptive_product_rule(seed, kind, x, flux, cond):
     rng = np.random.default_rng(seed)
     W = spd(rng, 3, cond)
     rough = MEASURES[kind](x)
     U = unit_velocities(rng, 1050)
     law = mbi.RoughLaw(rough, 0.5, flux=flux)
-    table = tilt_table(rough, W, flux == "metric")
+    table = tilt_table(rough, W, flux == "configuration")
     assert table is not None or cond > 10  # only strongly anisotropic W may be too peaked for a table
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.AccuracyWarning)  # the product rule may stop short of 1e-12
@@ -78,13 +78,13 @@ def test_batch_on_a_robot_equals_single_impacts():
     assert np.all(batch.energy_loss >= 0.0)
 
 
-@pytest.mark.parametrize("flux", ["metric", "contact"])
+@pytest.mark.parametrize("flux", ["configuration", "physical"])
 def test_a_band_of_tilts_gets_two_series_continuous_across_beta_l(flux):
     """Support (0.2, 0.7): every ring is cut beyond β_l = π/2 − 0.2, where H has a (β − β_l)^{5/2}
     onset; the second series in σ, β = β_l + σ², matches the product rule on both sides."""
     rough = mbi.IsotropicSlopes(lambda a: np.ones_like(a), support=(0.2, 0.7))
     W = spd(np.random.default_rng(1), 3, 10.0)
-    table = tilt_table(rough, W, flux == "metric")
+    table = tilt_table(rough, W, flux == "configuration")
     assert table is not None and [b for b, _, _ in table.pieces] == pytest.approx([math.pi / 2 - 0.7, math.pi / 2 - 0.2])
     beta_l = math.pi / 2 - 0.2
     near = np.array([[0.6 * math.sin(b), 0.8 * math.sin(b), -math.cos(b)]
