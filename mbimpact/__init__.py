@@ -1,82 +1,110 @@
 """mbimpact — Ivanov's constructive model of impact on rough surfaces for multibody systems.
 
-The pipeline: Pinocchio (A(q), J(q)) → metric (N, Delassus W) → roughness (facets
-and their measure) → law (the flux-weighted average (2.8)) → result (I by (1.1)).
+The pipeline, one subpackage per stage:
+
+1. :mod:`mbimpact.mechanism` — Pinocchio: A(q), the contact Jacobian J(q), :func:`impact`;
+2. :mod:`mbimpact.metric` — the A-metric at the contact: Delassus matrix W, local frame;
+3. :mod:`mbimpact.roughness` — facets and their measure (G, P);
+4. :mod:`mbimpact.averaging` — the rules that compute the two integrals of (2.8);
+5. :mod:`mbimpact.laws` — Newton's law, the rough law (2.8), Coulomb's law;
+6. :mod:`mbimpact.results` — I = A Δv = Jᵀ P by (1.1), results that check themselves.
+
+Around it: :mod:`mbimpact.compliant` (the model resolved in time),
+:mod:`mbimpact.simulation` (scenes and their simulation, section 4) and
+:mod:`mbimpact.apps` (the ``mbimpact`` command, loaded on use). The theory the code
+implements is in :mod:`mbimpact.theory`.
 """
 
-from . import compare, figures, sweep, vibro
-from .contact import PointContact, impact, impact_batch
-from .coulomb import CoulombLaw
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from .averaging import METHODS as AVERAGING_METHODS
+from .averaging import Averaging
+from .compliant import Resolved, RoughResolved, SimultaneousReport, compare_simultaneous, resolve, resolve_rough
 from .errors import (
     AccuracyWarning,
     FrameNotFoundError,
-    ImpactWarning,
-    NoSeparationWarning,
     ImpactError,
+    ImpactWarning,
     IntegrationError,
     NameNotFoundError,
     NoFacingFacetError,
     NoImpactError,
     NonFiniteError,
+    NoSeparationWarning,
     NotPositiveDefiniteError,
     ParameterError,
     RobotNotFoundError,
     RoughnessError,
+    SceneError,
     ShapeError,
 )
-from .laws import ImpactLaw, NewtonLaw
-from .mechanism import Mechanism
+from .laws import CoulombLaw, ImpactLaw, NewtonLaw, RoughLaw, e_from_k, impact_duration, k_from_e
+from .mechanism import (
+    Contact,
+    Mechanism,
+    PointContact,
+    impact,
+    impact_batch,
+    model_names,
+    model_path,
+    models_dir,
+    robot_names,
+    robot_urdf,
+)
 from .metric import ContactMetric, local_basis
-from .relief import HeightMap, Profile
-from .resolve import Resolved, resolve
-from .resolve_rough import RoughResolved, resolve_rough
-from .restitution import e_from_k, impact_duration, k_from_e
-from .result import BatchResult, ImpactResult
-from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
-from .roughlaw import RoughLaw
-from .roughness import Cone, Facets, FiniteRoughness, Roughness, Sawtooth, Smooth
-from .scene import Scene, SceneContact, SceneError, Surface, load_scene, scene_names
-from .simulate import ImpactRecord, Trajectory, simulate
-from .simultaneous import SimultaneousReport, compare_simultaneous
-from .slopes import GaussianSlopes, IsotropicSlopes
+from .results import BatchResult, ContactImpulses, ImpactResult
+from .roughness import (
+    Cone,
+    Facets,
+    FiniteRoughness,
+    GaussianSlopes,
+    HeightMap,
+    IsotropicSlopes,
+    Profile,
+    Roughness,
+    Sawtooth,
+    Smooth,
+)
+from .simulation import (
+    ImpactRecord,
+    Scene,
+    SceneContact,
+    Surface,
+    Trajectory,
+    load_scene,
+    scene_names,
+    simulate,
+    sweep,
+)
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     # pipeline
     "Mechanism",
+    "Contact",
     "PointContact",
     "impact",
     "impact_batch",
-    "resolve",
-    "resolve_rough",
-    "Resolved",
-    "RoughResolved",
-    "compare_simultaneous",
-    "SimultaneousReport",
-    # scenes
-    "Scene",
-    "SceneContact",
-    "Surface",
-    "SceneError",
-    "load_scene",
-    "scene_names",
-    "simulate",
-    "Trajectory",
-    "ImpactRecord",
     "ContactMetric",
     "local_basis",
     # roughness measures
     "Roughness",
+    "FiniteRoughness",
     "Smooth",
     "Sawtooth",
     "Cone",
     "Facets",
-    "FiniteRoughness",
     "IsotropicSlopes",
     "GaussianSlopes",
     "Profile",
     "HeightMap",
+    # averaging
+    "Averaging",
+    "AVERAGING_METHODS",
     # laws and results
     "ImpactLaw",
     "NewtonLaw",
@@ -84,20 +112,34 @@ __all__ = [
     "CoulombLaw",
     "ImpactResult",
     "BatchResult",
-    "ImpactWarning",
-    "AccuracyWarning",
-    "NoSeparationWarning",
-    # Kelvin–Voigt restitution
+    "ContactImpulses",
     "e_from_k",
     "k_from_e",
     "impact_duration",
+    # compliant route
+    "resolve",
+    "Resolved",
+    "resolve_rough",
+    "RoughResolved",
+    "compare_simultaneous",
+    "SimultaneousReport",
+    # scenes
+    "Scene",
+    "SceneContact",
+    "Surface",
+    "load_scene",
+    "scene_names",
+    "simulate",
+    "Trajectory",
+    "ImpactRecord",
+    "sweep",
     # models
     "robot_names",
     "robot_urdf",
     "model_names",
     "model_path",
     "models_dir",
-    # errors
+    # errors and warnings
     "ImpactError",
     "ShapeError",
     "NonFiniteError",
@@ -110,10 +152,20 @@ __all__ = [
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",
-    # submodules of the section-4, comparison and sweep tools
-    "compare",
-    "figures",
-    "sweep",
-    "vibro",
+    "SceneError",
+    "ImpactWarning",
+    "AccuracyWarning",
+    "NoSeparationWarning",
     "__version__",
 ]
+
+# submodules reached as attributes, imported on first use (the apps pull in matplotlib)
+_LAZY = {"apps": ".apps", "section4": ".simulation.section4", "theory": ".theory"}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        module = importlib.import_module(_LAZY[name], __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'mbimpact' has no attribute {name!r}")

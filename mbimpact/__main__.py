@@ -1,7 +1,5 @@
-"""``python -m mbimpact`` is the ``mbimpact`` command."""
+"""``python -m mbimpact``: the command line."""
 
-import sys
+from .apps.cli import main
 
-from .cli import main
-
-sys.exit(main())
+raise SystemExit(main())

@@ -28,6 +28,7 @@ __all__ = [
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",
+    "SceneError",
     "ImpactWarning",
     "AccuracyWarning",
     "NoSeparationWarning",
@@ -80,7 +81,11 @@ class NoFacingFacetError(ImpactError):
 
 
 class IntegrationError(ImpactError):
-    """The time integration of a compliant impact gave up (the message gives the time reached)."""
+    """A time integration gave up (the message gives the time reached)."""
+
+
+class SceneError(ImpactError):
+    """A scene file or object is invalid; the message names the key (and line)."""
 
 
 class ImpactWarning(ImpactError, UserWarning):

@@ -1,20 +1,14 @@
-"""Shared fixtures and strategies.
+"""Hypothesis profiles and fixtures shared by every test (helpers are in :mod:`tests.helpers`).
 
-Hypothesis profiles: ``ci`` (default, fast) and ``nightly`` (``--hypothesis-profile=nightly``,
-10⁴ examples per property).
+Profiles: ``ci`` (default, fast, derandomised) and ``nightly``
+(``--hypothesis-profile=nightly``, 10⁴ examples per property).
 """
 
 from __future__ import annotations
 
-import functools
-import math
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
-from hypothesis import strategies as st
-
-import mbimpact as mbi
 
 settings.register_profile(
     "ci", max_examples=60, deadline=None, derandomize=True,
@@ -26,71 +20,7 @@ settings.register_profile(
 )
 settings.load_profile("ci")
 
-#: example-robot-data robots used in property tests (arms, legged, humanoid, floating).
-ROBOTS = ["ur5", "panda", "solo12", "talos", "go1", "kinova", "double_pendulum", "xarm7", "anymal", "z1", "bolt", "iris"]
-
-
-@functools.lru_cache(maxsize=None)
-def mechanism(name: str) -> mbi.Mechanism:
-    """Robots are loaded once per session (frames and data are reused read-only)."""
-    return mbi.Mechanism.from_robot(name)
-
-
-def last_frame(mech: mbi.Mechanism) -> str:
-    """A frame at the end of the kinematic tree (the last one declared)."""
-    return mech.frame_names[-1]
-
-
-def spd(rng: np.random.Generator, n: int, cond: float = 1e3) -> np.ndarray:
-    """Random symmetric positive definite matrix with condition number ``cond``."""
-    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
-    return (Q * np.geomspace(1.0, cond, n)) @ Q.T / np.sqrt(cond)
-
-
-def approaching(J: np.ndarray, v: np.ndarray, n0: np.ndarray) -> np.ndarray:
-    """``v`` or ``-v``, whichever makes the contact point approach the surface."""
-    return v if n0 @ J @ v < 0 else -v
-
-
-def random_facets(rng: np.random.Generator, d: int, k: int, max_tilt: float = 1.2) -> mbi.Facets:
-    """K facets with tilts below ``max_tilt`` and random positive weights."""
-    tilt = rng.uniform(0.0, max_tilt, k)
-    if d == 2:
-        side = rng.choice([-1.0, 1.0], k)
-        m = np.column_stack([side * np.sin(tilt), np.cos(tilt)])
-    else:
-        az = rng.uniform(0, 2 * np.pi, k)
-        m = np.column_stack([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), np.cos(tilt)])
-    return mbi.Facets(m, rng.uniform(0.1, 1.0, k))
-
-
-seeds = st.integers(min_value=0, max_value=2**32 - 1)
-
 
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)
-
-
-def unit_velocities(rng: np.random.Generator, count: int, beta_max: float = math.pi / 2 - 1e-9) -> np.ndarray:
-    """Local-frame unit velocities with incidence β spread over [0, beta_max] (both regimes), random azimuth."""
-    beta = np.linspace(0.0, beta_max, count)
-    psi = rng.uniform(0.0, 2 * math.pi, count)
-    return np.column_stack([np.sin(beta) * np.cos(psi), np.sin(beta) * np.sin(psi), -np.cos(beta)])
-
-
-def relative_du(P: np.ndarray, ref: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """Row-wise relative difference of contact impulses, measured by Δu = W P."""
-    return np.linalg.norm((P - ref) @ W, axis=1) / np.linalg.norm(ref @ W, axis=1)
-
-
-#: UR5 upright with the elbow straight: the contact Jacobian nearly loses rank (W spans 1e7).
-UPRIGHT_UR5 = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
-
-
-def upright_ur5_delassus() -> np.ndarray:
-    """The (symmetrised) Delassus matrix of the UR5's tool0 at :data:`UPRIGHT_UR5`."""
-    mech = mechanism("ur5")
-    J = mech.point_jacobian(UPRIGHT_UR5, "tool0")
-    W = J @ np.linalg.solve(mech.mass_matrix(UPRIGHT_UR5), J.T)
-    return 0.5 * (W + W.T)

@@ -1,0 +1,395 @@
+"""``mbimpact bench``: what accuracy costs in time.
+
+Three measurements, all taken in the same run so that ratios are meaningful:
+
+1. ``accuracy`` — error against a converged reference vs wall time per impact
+   for each way of averaging (2.8) over a cone of facets: the corrected closed
+   form (2.10) where it exists, the exact-arc quadrature at several node counts,
+   uniform azimuth sampling (G* by indicator), and Monte Carlo; then Gaussian
+   slopes at a near-singular posture (graded quadrature vs Monte Carlo).
+2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of
+   the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v; beside it the
+   Pinocchio calls alone and the floor of validating q, v and building the result.
+3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
+   increasing size and for several node counts.
+4. ``compliant`` — error of the impact resolved in time (:func:`mbimpact.resolve`)
+   against the closed facet law, and its cost, for M = 1e2 … 1e6 and several
+   integrator tolerances.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import platform
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..mechanism import PointContact, impact
+from ..errors import AccuracyWarning
+from ..laws import ImpactLaw, NewtonLaw
+from ..mechanism import Mechanism
+from .progress import Progress
+from ..results import ImpactResult
+from ..laws import RoughLaw
+from ..roughness import Cone, Facets
+from ..roughness import GaussianSlopes
+
+__all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "plot", "machine_summary", "moving_frame"]
+
+ALPHA = 0.4  # cone tilt: G* is cut for β > π/2 − α ≈ 67°
+E = 0.5
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One measurement: ``part`` is accuracy, overhead or batch."""
+
+    part: str
+    case: str
+    method: str
+    param: float
+    error: float
+    seconds: float
+    ratio: float = math.nan
+
+
+def machine_summary() -> str:
+    """Processor, Python, numpy and Pinocchio versions, for the report."""
+    return (
+        f"{platform.processor() or platform.machine()}, {platform.system()}, Python {platform.python_version()}, "
+        f"numpy {np.__version__}, pinocchio {pin.__version__}"
+    )
+
+
+def per_call(fn: Callable[[], object], min_time: float) -> float:
+    """Best of 3 mean wall times of ``fn()``, each over at least ``min_time`` seconds."""
+    fn()  # warm caches
+    best = math.inf
+    for _ in range(3):
+        count, start = 0, time.perf_counter()
+        while True:
+            fn()
+            count += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= min_time:
+                break
+        best = min(best, elapsed / count)
+    return best
+
+
+def closed_form_cone(alpha: float, e: float, v: np.ndarray) -> np.ndarray:
+    """Corrected (2.10) for a point mass and a cone of tilt α (whole cone facing)."""
+    vl, vn = v[:2], abs(v[2])
+    ca, s2c = math.cos(alpha), math.sin(alpha) ** 2 * math.cos(alpha)
+    return (1 + e) / ca * np.array([-vl[0] * s2c, -vl[1] * s2c, vn * ca**3 + (vl @ vl) / vn * s2c / 2])
+
+
+def _uniform_facets(alpha: float, count: int) -> Facets:
+    phi = 2 * math.pi * (np.arange(count) + 0.5) / count
+    s, c = math.sin(alpha), math.cos(alpha)
+    return Facets(np.column_stack([s * np.cos(phi), s * np.sin(phi), np.full(count, c)]))
+
+
+def _measurer(rows: list[BenchRow], label: str, A: np.ndarray, J: np.ndarray, v: np.ndarray, ref: np.ndarray,
+              min_time: float) -> Callable[..., None]:
+    """``measure(method, param, law=None, fn=None)``: one accuracy row against ``ref``."""
+    W = J @ np.linalg.solve(A, J.T)
+
+    def measure(method: str, param: float, law: ImpactLaw | None, fn: Callable[[], np.ndarray] | None = None) -> None:
+        call = fn if fn is not None else (lambda: law.apply(A, J, v, [0, 0, 1]).P)  # type: ignore[union-attr]
+        P = call()
+        err = float(np.linalg.norm(W @ (P - ref)) / np.linalg.norm(W @ ref))  # error of Δu = W P
+        rows.append(BenchRow("accuracy", label, method, param, err, per_call(call, min_time)))
+
+    return measure
+
+
+def _incident(beta_deg: float) -> np.ndarray:
+    beta = math.radians(beta_deg)
+    return np.array([math.sin(beta) * math.cos(0.3), math.sin(beta) * math.sin(0.3), -math.cos(beta)])
+
+
+def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    ur5 = Mechanism.from_robot("ur5")
+    q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
+    J_ur5 = ur5.point_jacobian(q, "tool0")
+    upright = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])  # elbow straight: W's eigenvalues span 1e7
+    singular = (ur5.mass_matrix(upright), ur5.point_jacobian(upright, "tool0"))
+    cases = {"point mass": (np.eye(3), np.eye(3)), "UR5 tool0": (ur5.mass_matrix(q), J_ur5),
+             "UR5 near-singular": singular}
+    betas = (0.0, 30.0, 60.0, 75.0, 85.0) if not quick else (30.0, 75.0)
+    gl_nodes = (4, 8, 16, 32, 64)
+    uniform = (16, 64, 256, 1024) if not quick else (16, 256)
+    mc = (100, 1000, 10_000, 100_000) if not quick else (100, 10_000)
+    for case, (A, J) in cases.items():
+        for beta_deg in betas:
+            u = _incident(beta_deg)
+            v = np.linalg.lstsq(J, u, rcond=None)[0] if case != "point mass" else u
+            ref = RoughLaw(Cone(ALPHA), E, nodes=1024).apply(A, J, v, [0, 0, 1]).P
+            label = f"{case}, beta={beta_deg:g}"
+            measure = _measurer(rows, label, A, J, v, ref, min_time)
+            if case == "point mass" and math.tan(beta_deg * math.pi / 180) * math.tan(ALPHA) < 1:
+                measure("closed form (2.10)", 0, None, lambda: closed_form_cone(ALPHA, E, v))
+            for n in gl_nodes:
+                measure("exact-arc quadrature", n, RoughLaw(Cone(ALPHA), E, nodes=n))
+            measure("adaptive (rtol=1e-12)", 0, RoughLaw(Cone(ALPHA), E))
+            for n in uniform:
+                measure("uniform sampling", n, RoughLaw(_uniform_facets(ALPHA, n), E))
+            for n in mc:
+                measure("Monte Carlo", n, RoughLaw(Cone(ALPHA), E, method="monte-carlo", samples=n, seed=1))
+            progress.step(label)
+    # a continuous measure at the hard posture: tilt and azimuth graded towards the peaks of 1/mᵀWm
+    A, J = singular
+    slopes = GaussianSlopes(0.3)
+    for beta_deg in (30.0, 75.0) if not quick else (75.0,):
+        v = np.linalg.lstsq(J, _incident(beta_deg), rcond=None)[0]
+        ref = RoughLaw(slopes, E, nodes=128).apply(A, J, v, [0, 0, 1]).P
+        label = f"UR5 near-singular, GaussianSlopes(0.3), beta={beta_deg:g}"
+        measure = _measurer(rows, label, A, J, v, ref, min_time)
+        for n in (8, 16, 32) if quick else (8, 16, 32, 64):
+            measure("graded tilt x azimuth", n, RoughLaw(slopes, E, nodes=n))
+        measure("adaptive (rtol=1e-12)", 0, RoughLaw(slopes, E))
+        for n in (1000, 100_000) if quick else (1000, 10_000, 100_000):
+            measure("Monte Carlo", n, RoughLaw(slopes, E, method="monte-carlo", samples=n, seed=1))
+        progress.step(label)
+    return rows
+
+
+OVERHEAD_ROBOTS = ("ur5", "panda", "solo12", "talos")
+
+
+def moving_frame(mech: Mechanism, q: np.ndarray) -> str:
+    """The last-declared frame whose translational Jacobian at q is not zero."""
+    for name in reversed(mech.frame_names):
+        if np.linalg.norm(mech.point_jacobian(q, name)) > 1e-6:
+            return name
+    raise ValueError(f"no frame of {mech.name} moves")  # pragma: no cover
+
+
+def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    for name in robots:
+        mech = Mechanism.from_robot(name)
+        rng = np.random.default_rng(7)
+        q = mech.random_configuration(rng)
+        frame = moving_frame(mech, q)
+        contact = PointContact(frame)
+        fid = mech.frame_id(frame)
+        J = mech.point_jacobian(q, frame)
+        v = -J[2] / max(float(np.linalg.norm(J[2])), 1e-12) + 0.1 * rng.normal(size=mech.nv)
+        if J[2] @ v >= 0:
+            v = -J[2]
+        model, data = mech.model, mech.model.createData()
+
+        def baseline() -> None:
+            Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+            pin.impulseDynamics(model, data, q, v, Jf[2:3], E, 0.0)
+
+        def pin_work() -> None:  # the Pinocchio calls mbi.impact makes for Newton's law, nothing else
+            Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+            pin.crba(model, data, q)
+            pin.cholesky.decompose(model, data)
+            pin.cholesky.solve(model, data, Jf[2])
+
+        t_pin = per_call(baseline, min_time)
+        rows.append(BenchRow("overhead", name, "Jacobian + pin.impulseDynamics", mech.nv, 0.0, t_pin, 1.0))
+        t_floor = per_call(pin_work, min_time)
+        rows.append(BenchRow("overhead", name, "Pinocchio calls inside impact(NewtonLaw) only", mech.nv, 0.0,
+                             t_floor, t_floor / t_pin))
+        newton = NewtonLaw(E)
+        n0, A = np.array([0.0, 0.0, 1.0]), mech.mass_matrix(q)
+
+        def python_floor() -> None:  # what any impact() returning an ImpactResult pays before any physics
+            q_, v_ = mech.check_state(q, v)
+            ImpactResult(v_minus=v_.copy(), v_plus=v_, dv=v_, P=n0, u_minus=n0, u_plus=n0, n0=n0, A=A, J=J,
+                         law=newton)
+
+        t_python = per_call(python_floor, min_time)
+        rows.append(BenchRow("overhead", name, "validation + result object only (no physics)", mech.nv, 0.0,
+                             t_python, t_python / t_pin))
+        for label, law in (("impact, NewtonLaw", NewtonLaw(E)), ("impact, RoughLaw(Cone)", RoughLaw(Cone(0.3), E))):
+            t = per_call(lambda: impact(mech, q, v, contact, law), min_time)
+            rows.append(BenchRow("overhead", name, label, mech.nv, 0.0, t, t / t_pin))
+        progress.step(name)
+    return rows
+
+
+BATCH_ROBOTS = ("finger_edu", "ur5", "panda", "solo12", "talos", "tiago_dual")
+
+
+def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchRow]:
+    rows: list[BenchRow] = []
+    laws: list[tuple[str, float, ImpactLaw]] = [
+        ("NewtonLaw", 0, NewtonLaw(E)),
+        ("RoughLaw(8 facets)", 8, RoughLaw(_uniform_facets(0.3, 8), E)),
+        ("RoughLaw(Cone), nodes", 16, RoughLaw(Cone(0.3), E, nodes=16)),
+        ("RoughLaw(Cone), nodes", 32, RoughLaw(Cone(0.3), E, nodes=32)),
+        ("RoughLaw(Cone), nodes", 64, RoughLaw(Cone(0.3), E, nodes=64)),
+        ("RoughLaw(Cone), adaptive", 0, RoughLaw(Cone(0.3), E)),
+        # a continuous tilt density: its table in the incidence is built on the first call
+        ("RoughLaw(GaussianSlopes(0.3)), adaptive", 0, RoughLaw(GaussianSlopes(0.3), E)),
+    ]
+    for name in robots:
+        mech = Mechanism.from_robot(name)
+        rng = np.random.default_rng(11)
+        q = mech.random_configuration(rng)
+        frame = moving_frame(mech, q)
+        J = mech.point_jacobian(q, frame)
+        A = mech.mass_matrix(q)
+        n0 = np.array([0.0, 0.0, 1.0])
+        if np.linalg.norm(J[2]) < 1e-9:  # planar mechanism moving sideways: strike along its plane
+            n0 = J @ rng.normal(size=mech.nv)
+            n0 /= np.linalg.norm(n0)
+        V = rng.normal(size=(size, mech.nv))
+        V[V @ (J.T @ n0) > 0] *= -1
+        V = V[V @ (J.T @ n0) < 0]
+        for label, param, law in laws:
+            passes = []
+            for _ in range(2):  # the first pass also pays for page faults (and a table's construction)
+                start = time.perf_counter()
+                law.apply_batch(A, J, V, n0)
+                passes.append(time.perf_counter() - start)
+            if isinstance(law, RoughLaw) and isinstance(law.roughness, GaussianSlopes):
+                rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label + ", first call (builds the table)",
+                                     param, 0.0, passes[0] / len(V), len(V) / passes[0]))
+            elapsed = min(passes)
+            rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label, param, 0.0, elapsed / len(V), len(V) / elapsed))
+        progress.step(name)
+    return rows
+
+
+def _compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+    """Resolved Kelvin–Voigt impact (full dynamics) against the closed facet law."""
+    from ..compliant import resolve
+
+    mech = Mechanism.from_robot("ur5")
+    q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
+    contact = PointContact("tool0")
+    facet = np.array([math.sin(0.3), 0.0, math.cos(0.3)])
+    J = mech.point_jacobian(q, "tool0")
+    v = np.linalg.lstsq(J, [0.3, 0.0, -1.0], rcond=None)[0]
+    frame = contact.basis() @ np.column_stack([[math.cos(0.3), 0, -math.sin(0.3)], [0, 1, 0], facet])
+    law = NewtonLaw(E)
+    closed = law.apply(mech.mass_matrix(q), J, v, frame).dv
+    facet_contact = PointContact("tool0", normal=frame[:, 2])
+    t_closed = per_call(lambda: impact(mech, q, v, facet_contact, law), min_time)
+    V = np.tile(v, (10_000, 1))
+    A = mech.mass_matrix(q)
+    t_batch = per_call(lambda: law.apply_batch(A, J, V, frame), min_time) / len(V)
+    rows = [BenchRow("compliant", "UR5 tool0, one facet", "closed facet law (Newton), one call", 0, 0.0, t_closed,
+                     t_closed / t_batch),
+            BenchRow("compliant", "UR5 tool0, one facet", "closed facet law (Newton), per impact in a batch",
+                     0, 0.0, t_batch, 1.0)]
+    Ms = (1e2, 1e4, 1e6) if quick else (1e2, 1e3, 1e4, 1e5, 1e6)
+    for tol in ((1e-6,) if quick else (1e-4, 1e-6, 1e-9)):
+        for M in Ms:
+            def run() -> np.ndarray:
+                return resolve(mech, q, v, contact, facet, M=M, e=E, rtol=tol).dv
+
+            err = float(np.linalg.norm(run() - closed) / np.linalg.norm(closed))
+            t = per_call(run, min_time)
+            rows.append(BenchRow("compliant", f"rtol={tol:g}", "resolve (full dynamics)", M, err, t, t / t_batch))
+    progress.step("compliant")
+    return rows
+
+
+def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]:
+    """Run the three parts; ``quick`` trims grids and repetitions (< 20 s)."""
+    min_time = 0.005 if quick else 0.05
+    acc_steps = 7 if quick else 17  # cone cases × incidences, then the graded slopes case
+    robots = OVERHEAD_ROBOTS[:2] + OVERHEAD_ROBOTS[2:] if not quick else ("ur5", "solo12")
+    batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
+    progress = Progress(acc_steps + len(robots) + len(batch_robots) + 1, "bench", enabled=show_progress)
+    with warnings.catch_warnings():
+        # the table reports every method's true error; a rounding-limited adaptive result need not warn too
+        warnings.simplefilter("ignore", AccuracyWarning)
+        rows = _accuracy(quick, min_time, progress)
+    rows += _compliant(quick, min_time, progress)
+    rows += _overhead(robots, min_time, progress)
+    rows += _batch(batch_robots, 5_000 if quick else 100_000, progress)
+    return rows
+
+
+def _table(title: str, header: str, lines: list[str]) -> list[str]:
+    """A markdown section: title, header row with its separator, then the lines."""
+    cols = header.count("|") - 1
+    return ["", title, "", header, "|" + "---|" * cols, *lines]
+
+
+def format_report(rows: list[BenchRow]) -> str:
+    """Markdown tables: accuracy (error, µs per impact), overhead ratios, batch throughput."""
+    def part(name: str) -> list[BenchRow]:
+        return [r for r in rows if r.part == name]
+
+    def blank0(x: float) -> str:
+        return "" if x == 0 else f"{x:g}"
+
+    out = [f"Machine: {machine_summary()}"]
+    out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
+                  "exact-arc quadrature, graded for the near-singular posture; Gaussian slopes against the "
+                  "graded rule with 128 nodes)",
+                  "| case | method | nodes/samples | rel. error | µs/impact |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
+                   for r in part("accuracy")])
+    out += _table("## Per-call cost against Pinocchio (same q, v, one run)",
+                  "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |",
+                  [f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |"
+                   for r in part("overhead")])
+    out += _table("## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)",
+                  "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |"
+                   for r in part("compliant")])
+    out += _table("## Batch throughput (apply_batch, one configuration)",
+                  "| robot | law | nodes | impacts/s | µs/impact |",
+                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
+                   for r in part("batch")])
+    return "\n".join(out)
+
+
+def write_csv(rows: list[BenchRow], path: Path) -> Path:
+    """All rows as CSV (columns of :class:`BenchRow`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
+        writer.writeheader()
+        for r in rows:
+            writer.writerow(asdict(r))
+    return path
+
+
+def plot(rows: list[BenchRow], path: Path) -> Path:
+    """Error vs time per method, and batch cost per impact vs nv."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 5.2))
+    acc = [r for r in rows if r.part == "accuracy"]
+    for method, slopes in dict.fromkeys((r.method, "Slopes" in r.case) for r in acc):
+        pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if (r.method, "Slopes" in r.case) == (method, slopes)]
+        ax1.scatter(*zip(*pts), label=method + (", Gaussian slopes" if slopes else ""), s=18,
+                    marker="x" if slopes else "o")
+    ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of Δu = W P",
+            title="Accuracy vs time: cone α = 0.4 (all β, all cases); x: Gaussian slopes, near-singular UR5")
+    ax1.legend(fontsize=8)
+    bat = [r for r in rows if r.part == "batch"]
+    for name, param in dict.fromkeys((r.method, r.param) for r in bat):
+        series = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6)
+                        for r in bat if (r.method, r.param) == (name, param))
+        ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
+    ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
+    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,139 @@
+"""Command line: ``mbimpact demo|bench|compare|figures|run``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..errors import ImpactError
+
+__all__ = ["main"]
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from .compare import format_table, write_csv
+    from .demo import demo_rows
+
+    rows = demo_rows(e=args.e)
+    print(f"UR5 tool0 striking a table at 1 m/s, facet restitution e = {args.e:g}\n")
+    print(format_table(rows))
+    if args.out:
+        print(f"\nwrote {write_csv(rows, args.out)}")
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from .bench import format_report, plot, run_bench, write_csv
+
+    rows = run_bench(quick=args.quick, show_progress=not args.no_progress)
+    print(format_report(rows))
+    if args.out:
+        out = Path(args.out)
+        print(f"\nwrote {write_csv(rows, out / 'bench.csv')}")
+        print(f"wrote {plot(rows, out / 'bench.png')}")
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from . import compare as cmp
+    from ..mechanism import PointContact
+    from ..laws import CoulombLaw
+    from .demo import UR5_POSTURE
+    from ..laws import NewtonLaw
+    from ..mechanism import Mechanism
+    from ..laws import RoughLaw
+    from ..roughness import Cone, Sawtooth
+
+    mech = Mechanism.from_urdf(args.urdf, args.floating) if args.urdf else Mechanism.from_robot(args.robot)
+    if args.q:
+        q = np.array([float(x) for x in args.q.split(",")])
+    else:
+        q = UR5_POSTURE if (args.robot == "ur5" and not args.urdf) else mech.neutral()
+    rough = Sawtooth(args.alpha) if args.planar else Cone(args.alpha)
+    laws = {
+        f"Newton e={args.e:g}": NewtonLaw(args.e),
+        f"rough {type(rough).__name__} alpha={args.alpha:g}": RoughLaw(rough, args.e),
+        f"Coulomb mu={args.mu:g} ({args.restitution})": CoulombLaw(args.e, args.mu, args.restitution),
+    }
+    contact = PointContact(args.frame, normal=np.array([0.0, 0.0, 1.0]), tangent=np.array([1.0, 0.0, 0.0]))
+    betas = np.linspace(0.0, args.max_beta, args.steps)
+    rows = cmp.compare_laws(mech, q, contact, laws, betas, args.speed)
+    shown = {float(b) for b in betas[:: max(1, len(betas) // 8)]} | {float(betas[-1])}
+    print(f"{mech.name} {args.frame}, approach speed {args.speed:g} m/s\n")
+    print(cmp.format_table([r for r in rows if r.beta_deg in shown]))
+    if args.out:
+        out = Path(args.out)
+        print(f"\nwrote {cmp.write_csv(rows, out / 'compare.csv')}")
+        print(f"wrote {cmp.plot(rows, out / 'compare.png', f'{mech.name} {args.frame}')}")
+    return 0
+
+
+def _figures(args: argparse.Namespace) -> int:
+    from .figures import write_all
+
+    for path in write_all(args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from .report import summary, write_outputs
+    from ..simulation import load_scene
+    from ..simulation import simulate
+
+    scene = load_scene(args.scene)
+    tr = simulate(scene, progress=not args.no_progress)
+    print(summary(scene, tr))
+    if args.out:
+        for path in write_outputs(scene, tr, args.out):
+            print(f"wrote {path}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``mbimpact`` console script."""
+    parser = argparse.ArgumentParser(prog="mbimpact", description="Impacts of mechanisms on rough surfaces (Ivanov's constructive model).")
+    sub = parser.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="UR5 tool hitting a table: Newton vs rough law")
+    demo.add_argument("--out", help="also write the table as CSV to this file")
+    demo.add_argument("--e", type=float, default=0.8, help="facet restitution (default 0.8)")
+    demo.set_defaults(func=_demo)
+    bench = sub.add_parser("bench", help="accuracy vs time, overhead against Pinocchio, batch throughput")
+    bench.add_argument("--quick", action="store_true", help="small grids (< 20 s)")
+    bench.add_argument("--out", help="directory for bench.csv and bench.png")
+    bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+    bench.set_defaults(func=_bench)
+    cmp = sub.add_parser("compare", help="Newton vs rough vs Coulomb law over the incidence angle")
+    src = cmp.add_mutually_exclusive_group()
+    src.add_argument("--robot", default="ur5", help="example-robot-data robot (default ur5)")
+    src.add_argument("--urdf", help="URDF file instead of a robot name")
+    cmp.add_argument("--floating", action="store_true", help="free-flyer root for --urdf")
+    cmp.add_argument("--frame", default="tool0", help="contact frame (default tool0)")
+    cmp.add_argument("--q", help="posture, comma-separated (default: neutral; UR5: over the table)")
+    cmp.add_argument("--speed", type=float, default=1.0, help="approach speed of the contact point [m/s]")
+    cmp.add_argument("--alpha", type=float, default=0.3, help="roughness tilt α of the rough law")
+    cmp.add_argument("--planar", action="store_true", help="planar sawtooth instead of a spatial cone")
+    cmp.add_argument("--e", type=float, default=0.8, help="restitution of all laws")
+    cmp.add_argument("--mu", type=float, default=0.3, help="Coulomb friction coefficient")
+    cmp.add_argument("--restitution", default="energetic", choices=["newton", "poisson", "energetic"])
+    cmp.add_argument("--max-beta", type=float, default=85.0, help="largest incidence angle [deg]")
+    cmp.add_argument("--steps", type=int, default=35, help="number of incidence angles")
+    cmp.add_argument("--out", help="directory for compare.csv and compare.png")
+    cmp.set_defaults(func=_compare)
+    figs = sub.add_parser("figures", help="the paper's Fig. 1 and claims 1°-5° as PNG files")
+    figs.add_argument("--out", default="figures", help="output directory (default ./figures)")
+    figs.set_defaults(func=_figures)
+    run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
+    run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")
+    run.add_argument("--out", help="directory for trajectory.csv, impacts.csv and plots.png")
+    run.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+    run.set_defaults(func=_run)
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except ImpactError as exc:
+        print(f"mbimpact: error: {exc}", file=sys.stderr)
+        return 2

@@ -1,0 +1,56 @@
+"""Stage 4 of the pipeline: averaging methods, the rules that turn a roughness measure, the
+Delassus matrix W and the contact velocities into the two integrals of (2.8).
+
+=============== ============================================================== ===================
+name            what it does                                                   ``"auto"`` uses it
+=============== ============================================================== ===================
+``exact``       finite sum over a finite facet set                             finite measures
+``ring``        Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
+``tilt-table``  Chebyshev tables of a tilt density in the incidence (exact)     tilt densities, ≥ 1024 rows
+``graded``      quadrature graded towards the peaks of a nearly singular W      a peak narrower than 0.15
+``cone-pair``   a cone's first adaptive pass (32 + 64 nodes) in a few products one velocity on a cone
+``fixed``       the measure's rule with ``nodes`` nodes                        ``nodes`` given
+``adaptive``    the measure's rule doubled until ``rtol``                      otherwise
+``monte-carlo`` ``samples`` facets drawn from P, with a standard error          never (a baseline)
+=============== ============================================================== ===================
+
+``RoughLaw(..., method="auto" | name | Averaging subclass or instance)``. With
+``"auto"`` the methods are tried in :data:`AUTO_ORDER`; the first that supports the
+measure, finds the case worthwhile and does not decline it at run time is used. The
+result records which method ran (``result.method``) and with how many nodes.
+"""
+
+from __future__ import annotations
+
+from .base import Averaging
+from .cone_pair import ConePair
+from .exact import Exact, MonteCarlo
+from .kernels import FLUXES, AveragingSpec, Flux
+from .refinement import Adaptive, Fixed, Graded
+from .ring import Ring
+from .tilt_table import TiltTableMethod
+
+__all__ = [
+    "Averaging",
+    "AveragingSpec",
+    "Flux",
+    "FLUXES",
+    "METHODS",
+    "AUTO_ORDER",
+    "Exact",
+    "Ring",
+    "TiltTableMethod",
+    "Graded",
+    "ConePair",
+    "Fixed",
+    "Adaptive",
+    "MonteCarlo",
+]
+
+#: The averaging methods by name.
+METHODS: dict[str, type[Averaging]] = {
+    cls.name: cls for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, Fixed, Adaptive, MonteCarlo)
+}
+
+#: The order in which ``method="auto"`` tries them.
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "fixed", "adaptive")

@@ -1,0 +1,159 @@
+"""Quadrature rules refined to an accuracy: fixed, adaptive, and graded for a nearly singular W.
+
+The measure's rule (:meth:`mbimpact.Roughness.rule_batch`) follows the facing set G*
+exactly, so it converges geometrically in the node count in every regime. A
+nearly singular Delassus matrix (an arm near a singular posture) makes the kernels
+of (2.8) peak with width ε ≪ 1 where mᵀWm is smallest; the plain rule then needs
+≫ 1/ε nodes, and the graded rule (:meth:`mbimpact.Roughness.graded_rule`, sinh maps
+towards the peaks) restores geometric convergence.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..common.geometry import EPS
+from ..errors import AccuracyWarning, warn
+from ..metric.delassus import eigen_ratio, spread_bound
+from ..results.impact import ContactImpulses
+from ..roughness.base import Rule
+from .base import Averaging
+from .kernels import AveragingSpec, relative_change, rule_average
+
+__all__ = ["Fixed", "Adaptive", "Graded", "peaked_rule", "refine"]
+
+
+class Fixed(Averaging):
+    """The measure's rule with ``nodes`` nodes; the error estimate compares with ``nodes // 2``.
+    Chosen by ``"auto"`` when ``RoughLaw(nodes=...)`` is given."""
+
+    name: ClassVar[str] = "fixed"
+
+    def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
+        return spec.nodes is not None
+
+    def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        return fixed(spec, W, U, None, self.name)
+
+
+class Adaptive(Averaging):
+    """The measure's rule, node count doubled on the rows that have not converged to ``rtol``
+    (or to the rounding floor 100 ε √K of a K-facet sum); an :class:`AccuracyWarning` says
+    when ``max_nodes`` or rounding amplified by |W||P|/|WP| stopped it short."""
+
+    name: ClassVar[str] = "adaptive"
+
+    def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
+        return spec.nodes is None
+
+    def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        return refine(spec, W, U, None, len(U), self.name)
+
+
+class Graded(Averaging):
+    """The measure's rule graded towards the peaks of the kernels of (2.8), for a nearly
+    singular W; fixed (``nodes`` per piece) or adaptive like the plain rule.
+
+    Attributes
+    ----------
+    peaked : float
+        ``"auto"`` grades when a peak is narrower than this (radians).
+    """
+
+    name: ClassVar[str] = "graded"
+    peaked: ClassVar[float] = 0.15
+
+    def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
+        return peaked_rule(spec, W, self.peaked, screen=True) is not None
+
+    def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
+        rule = peaked_rule(spec, W, self.peaked, screen=False)
+        if rule is None:
+            return None
+        if spec.nodes is not None:
+            return fixed(spec, W, U, rule, self.name)
+        return refine(spec, W, U, rule, spec.roughness.graded_rows or len(U), self.name)
+
+    def reason(self, spec: AveragingSpec) -> str:
+        return f"{spec.roughness!r} has no graded rule for this W (its kernels have no narrow peak)"
+
+
+def peaked_rule(spec: AveragingSpec, W: NDArray[np.float64], peaked: float, screen: bool) -> Rule | None:
+    """The measure's graded rule for W, or None. With ``screen``, a W whose peaks are all
+    wider than ``peaked`` is ruled out first in closed form (q_min ≥ λ_min and q'' ≤ 8 λ_max on a
+    ring, so every peak width sqrt(2 q_min / q'') is ≥ sqrt(λ_min / 4 λ_max))."""
+    if screen:
+        if W.shape == (2, 2):  # det / tr² ≤ λ₁ / λ₂, the square of the width of the peak
+            if spread_bound(W) > peaked**2:
+                return None
+        elif W.shape != (3, 3) or eigen_ratio(W) > 4 * peaked**2:
+            return None
+    return spec.roughness.graded_rule(W, peaked)
+
+
+def fixed(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None, method: str
+          ) -> ContactImpulses:
+    """``spec.nodes`` nodes (the estimate compares with half as many)."""
+    assert spec.nodes is not None
+    (P, coarse), _ = rule_average(spec, W, U, (spec.nodes, max(1, spec.nodes // 2)), rule)
+    return ContactImpulses(P, relative_change(P, coarse, W), spec.nodes, method)
+
+
+def refine(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None, rows: int,
+           method: str) -> ContactImpulses:
+    """Adaptive refinement, ``rows`` rows at a time; one :class:`AccuracyWarning` if rounding
+    or ``max_nodes`` stopped some row short of ``rtol``."""
+    P, err = np.empty_like(U), np.empty(len(U))
+    nodes, limited, capped = 0, False, False
+    for start in range(0, len(U), rows):
+        block = slice(start, start + rows)
+        P[block], err[block], nodes_b, limited_b, capped_b = _refine_block(spec, W, U[block], rule)
+        nodes, limited, capped = max(nodes, nodes_b), limited or limited_b, capped or capped_b
+    if capped:
+        warn(AccuracyWarning, f"{spec!r}: quadrature reached {nodes} nodes with estimated relative error "
+                              f"{err.max():.3g} > rtol={spec.rtol:g}")
+    elif limited:
+        warn(AccuracyWarning, f"{spec!r}: converged to rounding at relative error {err.max():.3g} > rtol={spec.rtol:g}; "
+                              "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach")
+    return ContactImpulses(P, err, nodes, method)
+
+
+def _refine_block(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, bool]:
+    """:func:`refine` on one block of rows: impulses, error estimates, final node count, and
+    whether rounding (``limited``) or ``max_nodes`` (``capped``) ended the refinement."""
+    nodes = spec.roughness.initial_nodes
+    if 2 * nodes > spec.max_nodes:  # the first pair must stay within max_nodes
+        nodes = max(1, spec.max_nodes // 2)
+    (P, fine), (_, facets) = rule_average(spec, W, U, (nodes, 2 * nodes), rule)
+    err = np.full(len(U), np.inf)
+    todo = np.arange(len(U))
+    first, limited = True, False
+    scale_W = float(np.trace(W))  # ≥ |W|₂ for W ⪰ 0
+    while True:
+        nodes *= 2
+        if not first:
+            (fine,), (facets,) = rule_average(spec, W, U[todo], (nodes,), rule)
+        first = False
+        previous = err[todo]
+        err[todo] = relative_change(fine, P[todo], W)
+        P[todo] = fine
+        # two results that differ only by rounding (≈ ε √K for K facets) have converged;
+        # so have results that stopped improving at that level amplified by |W| |P| / |W P|
+        # (W nearly annihilates P: an ill-conditioned contact)
+        floor = 100 * EPS * np.sqrt(facets)
+        unconverged = err[todo] > max(spec.rtol, floor)
+        if not unconverged.any():
+            todo = todo[:0]
+        else:
+            amplification = scale_W * np.sqrt(np.einsum("bd,bd->b", fine, fine) / np.einsum("bd,bd->b", fine @ W, fine @ W))
+            stalled = unconverged & (err[todo] <= floor * amplification) & (err[todo] > 0.1 * previous)
+            limited = limited or bool(stalled.any())
+            todo = todo[unconverged & ~stalled]
+        if todo.size == 0:
+            return P, err, nodes, limited, False
+        if nodes * 2 > spec.max_nodes:
+            return P, err, nodes, limited, True

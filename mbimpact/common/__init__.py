@@ -1,0 +1,29 @@
+"""Helpers shared by the stages of the pipeline: input validation and contact geometry.
+
+Everything here is public so that no module needs another's private names.
+"""
+
+from .geometry import (
+    DEGENERATE,
+    EPS,
+    facing_half_width,
+    facing_half_width_scalar,
+    incidence_split,
+    offset_point_jacobian,
+    ring_quadratic_form,
+)
+from .validation import as_array, as_count, as_scalar, as_vector
+
+__all__ = [
+    "DEGENERATE",
+    "EPS",
+    "facing_half_width",
+    "facing_half_width_scalar",
+    "incidence_split",
+    "offset_point_jacobian",
+    "ring_quadratic_form",
+    "as_array",
+    "as_count",
+    "as_scalar",
+    "as_vector",
+]

@@ -1,0 +1,210 @@
+"""Impact laws: the shared pipeline from the metric to the result.
+
+Every law shares one pipeline (:mod:`mbimpact.theory`, §5):
+
+1. metric — A(q) factorised once, W = J A⁻¹ Jᵀ, u = J v (:mod:`mbimpact.metric`);
+2. law — a contact impulse P from (W, u) in the local frame of the base surface
+   (:meth:`ImpactLaw.contact_impulses`, the only step that differs between laws);
+3. result — Δv = A⁻¹ Jᵀ P and I = Jᵀ P, Lagrange's equations (1.1).
+
+Entry points: :meth:`ImpactLaw.apply` and :meth:`ImpactLaw.apply_batch` on arrays,
+:func:`mbimpact.impact` on a mechanism (through :meth:`ImpactLaw.apply_metric`), and
+:meth:`ImpactLaw.impulses` for contact velocities given directly (a moving surface).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..common.geometry import DEGENERATE
+from ..common.validation import as_array
+from ..errors import NoImpactError, NoSeparationWarning, RoughnessError, ShapeError, warn
+from ..metric.basis import local_basis
+from ..metric.delassus import ContactMetric
+from ..results.impact import BatchResult, ContactImpulses, ImpactResult
+
+__all__ = ["ImpactLaw"]
+
+
+class ImpactLaw(ABC):
+    """Base class: the pipeline metric → contact impulse → result.
+
+    Subclasses implement :meth:`contact_impulses` in the local frame of the base
+    surface (last axis along n⁰) for unit contact velocities.
+
+    Attributes
+    ----------
+    e : float
+        Restitution (of the facets, for the rough law).
+    block_rows : int
+        Rows per block of a batch: keeps (rows × nodes × d) work arrays in cache.
+    """
+
+    e: float
+    block_rows: ClassVar[int] = 2048
+
+    @property
+    def dim(self) -> int | None:
+        """Contact-space dimension the law requires (None: 2 or 3)."""
+        return None
+
+    @abstractmethod
+    def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        """Contact impulses for a batch of unit contact velocities, local frame.
+
+        Parameters
+        ----------
+        W : ndarray, shape (d, d)
+            Delassus matrix in the local frame, Rᵀ W R.
+        U : ndarray, shape (B, d)
+            Unit pre-impact contact velocities, ``U[:, -1] < 0``.
+
+        Returns
+        -------
+        ContactImpulses
+            P (B, d) in the local frame, error estimates (B,), nodes, method.
+        """
+
+    # ------------------------------------------------------------------ core
+    def impulses(self, metric: ContactMetric, U: NDArray[np.float64], R: NDArray[np.float64]) -> ContactImpulses:
+        """Contact impulses P (B, d), world frame, for contact velocities U (B, d).
+
+        ``U`` is the velocity of the contact point relative to the surface; it differs
+        from J v when the surface moves (a vibrating table). ``R`` (d, d) is the local
+        frame, last column n⁰.
+
+        Raises
+        ------
+        NoImpactError
+            A row does not approach the surface, or the mechanism cannot move the contact
+            point along n⁰ (n⁰ᵀWn⁰ ≈ 0).
+        RoughnessError
+            The law needs another contact-space dimension.
+        """
+        d = metric.d
+        if self.dim is not None and self.dim != d:
+            raise RoughnessError(f"{self!r} needs a {self.dim}-D contact space but J has {d} rows")
+        W, n0 = metric.W, R[:, -1]
+        un = U @ n0
+        if not un.max() < 0.0:
+            bad = np.flatnonzero(~(un < 0.0))
+            where = "" if len(un) == 1 else f" (rows {bad[:5].tolist()}{'...' if bad.size > 5 else ''})"
+            raise NoImpactError(
+                f"the contact point does not approach the surface{where}: "
+                f"n0·(J v) = {un[bad[0]]:.6g} must be < 0"
+            )
+        if not float(n0 @ W @ n0) > DEGENERATE * float(np.trace(W)):
+            raise NoImpactError(
+                "the mechanism cannot move the contact point along n0 (n0ᵀ W n0 ≈ 0); no impact can occur"
+            )
+        # Every law is positively homogeneous of degree 1 in u (1°): work with unit
+        # directions so that velocity scales far from 1 neither under- nor overflow.
+        big = np.abs(U).max(axis=1)
+        speed = big * np.linalg.norm(U / big[:, None], axis=1)
+        W_local = R.T @ W @ R
+        U_local = (U @ R) / speed[:, None]
+        if len(U) <= self.block_rows:
+            out = self.contact_impulses(W_local, U_local)
+            P, err, nodes, method = out.P, out.error, out.nodes, out.method
+        else:
+            P, err, nodes, methods = np.empty_like(U), np.empty(len(U)), 0, set()
+            for start in range(0, len(U), self.block_rows):
+                block = slice(start, start + self.block_rows)
+                out = self.contact_impulses(W_local, U_local[block])
+                P[block], err[block], nodes = out.P, out.error, max(nodes, out.nodes)
+                methods.add(out.method)
+            method = "+".join(sorted(methods))
+        P = P @ R.T
+        proj = metric.range_projector
+        if proj is not None:
+            # rank-deficient J: report the minimum-norm impulse, the only one that
+            # does not depend on how the quadrature split the part in null(Jᵀ)
+            P = P @ proj
+        return ContactImpulses(P * speed[:, None], err, nodes, method)
+
+    # ------------------------------------------------------------------ single
+    def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+        """The impact at a validated metric, velocity ``v`` (n,) and contact frame ``R`` (d, d)."""
+        u = metric.J @ v
+        out = self.impulses(metric, u[None, :], R)
+        P = out.P[0]
+        dv = metric.AinvJt @ P
+        result = ImpactResult(
+            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=P, u_minus=u, u_plus=u + metric.W @ P, n0=R[:, -1].copy(),
+            A=metric.A, J=metric.J, law=self, error_estimate=float(out.error[0]), nodes=out.nodes, method=out.method,
+        )
+        if not result.separates:
+            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
+                 f"(kappa = {result.kappa:.6g} < 0); further micro-impacts follow: use repeat=True to apply them")
+        return result
+
+    def apply(self, A: ArrayLike, J: ArrayLike, v: ArrayLike, frame: ArrayLike) -> ImpactResult:
+        """Post-impact state for mass matrix ``A``, contact Jacobian ``J``, velocity ``v``.
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+            Symmetric positive definite mass matrix A(q).
+        J : array_like, shape (d, n)
+            World-aligned translational contact Jacobian, d = 2 or 3.
+        v : array_like, shape (n,)
+            Pre-impact generalised velocity.
+        frame : array_like, shape (d,) or (d, d)
+            Base normal n⁰, or a rotation whose last column is n⁰.
+
+        Returns
+        -------
+        ImpactResult
+
+        Raises
+        ------
+        ShapeError, NonFiniteError, NotPositiveDefiniteError
+            Invalid arrays.
+        NoImpactError
+            The contact point does not approach the base surface.
+        NoFacingFacetError
+            No facet faces the velocity (G* of (2.7) is empty).
+        """
+        metric = ContactMetric.from_arrays(A, J)
+        v = as_array("v", v, 1, (metric.n,))
+        return self.apply_metric(metric, v, local_basis(frame, metric.d))
+
+    # ------------------------------------------------------------------ batch
+    def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:
+        """:meth:`apply` for many velocities at one configuration, vectorised.
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+        J : array_like, shape (d, n)
+        V : array_like, shape (B, n), B ≥ 1
+            Pre-impact velocities, one per row; every row must approach the surface.
+        frame : array_like, shape (d,) or (d, d)
+
+        Returns
+        -------
+        BatchResult
+        """
+        metric = ContactMetric.from_arrays(A, J)
+        V = as_array("V", V, 2, (None, metric.n))
+        if not len(V):
+            raise ShapeError("V must have at least one row (one velocity per impact)")
+        R = local_basis(frame, metric.d)
+        U = V @ metric.J.T
+        out = self.impulses(metric, U, R)
+        dV = out.P @ metric.AinvJt.T
+        result = BatchResult(
+            V_minus=V.copy(), V_plus=V + dV, dV=dV, P=out.P, U_minus=U, U_plus=U + out.P @ metric.W,
+            n0=R[:, -1].copy(), A=metric.A, J=metric.J, law=self, error_estimate=out.error, nodes=out.nodes,
+            method=out.method,
+        )
+        approaching = np.flatnonzero(~result.separates)
+        if approaching.size:
+            warn(NoSeparationWarning, f"{self!r}: {approaching.size} of {len(V)} contacts still approach the surface "
+                 f"after the impact (kappa < 0, e.g. row {approaching[0]}); further micro-impacts follow: "
+                 "use repeat=True to apply them")
+        return result

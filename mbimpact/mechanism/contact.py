@@ -1,0 +1,110 @@
+"""Contacts of a mechanism: where it strikes and the local frame of the base surface there.
+
+A contact supplies what stage 1 of the pipeline needs besides A(q): the contact
+Jacobian J(q) (d, nv) of the striking point, world-aligned, and the rotation R whose
+last column is the base normal n⁰. :class:`PointContact` is a point fixed to a frame
+of the mechanism striking a plane of given normal.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..common.validation import as_array
+from ..errors import ShapeError
+from ..metric.basis import local_basis
+from .mechanism import Mechanism
+
+__all__ = ["Contact", "PointContact", "unit_vector"]
+
+
+def unit_vector(name: str, x: ArrayLike) -> NDArray[np.float64]:
+    """A (3,) vector normalised to unit length (:class:`ShapeError` if zero)."""
+    a = as_array(name, x, 1, (3,))
+    big = float(np.abs(a).max())
+    if big == 0.0:
+        raise ShapeError(f"{name} is the zero vector")
+    a = a / big  # scaled first: the norm of a tiny or huge vector neither under- nor overflows
+    return a / float(np.linalg.norm(a))
+
+
+class Contact(ABC):
+    """Base class of contacts: the Jacobian and local frame of a striking point at q."""
+
+    @abstractmethod
+    def jacobian(self, mech: Mechanism, q: NDArray[np.float64], d: int = 3
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Contact Jacobian and contact frame at a validated configuration ``q``.
+
+        Returns
+        -------
+        J : ndarray, shape (d, nv)
+            World-aligned for d = 3; rows (t₁, n⁰) of the plane of motion for d = 2.
+        frame : ndarray, shape (d, d)
+            Rotation whose last column is n⁰ in the coordinates of ``J``.
+        """
+
+
+@dataclass(frozen=True, eq=False)
+class PointContact(Contact):
+    """A point of the mechanism striking a surface with world normal ``normal``.
+
+    Parameters
+    ----------
+    frame : str
+        Frame the contact point is attached to.
+    normal : array_like, shape (3,)
+        Base normal n⁰ of the surface in the world frame (normalised here).
+    point : array_like, shape (3,)
+        Offset of the contact point from the frame origin, in the frame's axes.
+    tangent : array_like, shape (3,), optional
+        First tangent direction of the local facet frame (projected orthogonal to
+        n⁰). For a spatial contact it orients anisotropic facet sets; for a planar
+        contact (a law whose roughness is 2-D) it spans, with n⁰, the plane of
+        motion. Default: the world axis least aligned with n⁰, projected.
+    """
+
+    frame: str
+    normal: NDArray[np.float64] = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    point: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    tangent: NDArray[np.float64] | None = None
+    _basis: NDArray[np.float64] = field(init=False, repr=False)
+    _offset: NDArray[np.float64] | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.frame, str):
+            raise ShapeError(f"frame must be a frame name (str), got {type(self.frame).__name__}")
+        n0 = unit_vector("normal", self.normal)
+        object.__setattr__(self, "normal", n0)
+        object.__setattr__(self, "point", as_array("point", self.point, 1, (3,)))
+        if self.tangent is not None:
+            t = unit_vector("tangent", self.tangent)
+            t = t - (t @ n0) * n0
+            if np.linalg.norm(t) < 1e-9:
+                raise ShapeError("tangent is parallel to the normal")
+            object.__setattr__(self, "tangent", t / np.linalg.norm(t))
+        if self.tangent is None:
+            R = local_basis(n0, 3)
+        else:
+            R = np.column_stack([self.tangent, np.cross(n0, self.tangent), n0])
+        R.flags.writeable = False
+        object.__setattr__(self, "_basis", R)
+        object.__setattr__(self, "_offset", self.point if np.any(self.point) else None)
+
+    def basis(self) -> NDArray[np.float64]:
+        """World rotation (3, 3): columns t₁, t₂, n⁰."""
+        return self._basis
+
+    def jacobian(self, mech: Mechanism, q: NDArray[np.float64], d: int = 3
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        Jp = mech.frame_jacobian(q, mech.frame_id(self.frame), self._offset)
+        R = self._basis
+        if d == 3:
+            return Jp, R
+        if d == 2:
+            return R[:, [0, 2]].T @ Jp, np.eye(2)
+        raise ShapeError(f"contact-space dimension must be 2 or 3, got {d}")

@@ -1,0 +1,296 @@
+"""A Pinocchio model and the two quantities the impact laws need from it.
+
+From a mechanism at configuration q the laws need the mass matrix A(q)
+(``pin.crba``, armature included) and the world-aligned translational Jacobian
+of a contact point. Models are built from URDF kinematics and inertias; the
+collision geometry is loaded where a contact needs it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from ..common.geometry import offset_point_jacobian
+from ..common.validation import as_array, as_vector
+from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
+from .robots import close_matches, model_path, robot_urdf
+
+__all__ = ["Mechanism", "MassFactor"]
+
+# Every factorisation gets a token: a factor knows whether its thread's workspace still holds it.
+_TOKENS = itertools.count(1)
+
+
+@dataclass(frozen=True, eq=False)
+class MassFactor:
+    """The sparse Cholesky factor of A(q) held in a thread's Pinocchio workspace.
+
+    :meth:`solve` re-factorises at ``q`` first if the workspace has been used for
+    another configuration since (or the factor is used from another thread).
+
+    Attributes
+    ----------
+    valid : bool
+        A(q) is positive definite (every pivot of the factor finite and > 0).
+    """
+
+    mechanism: Mechanism
+    q: NDArray[np.float64]
+    token: int
+    valid: bool
+
+    def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A⁻¹ b for b of shape (nv,) or (nv, k)."""
+        mech = self.mechanism
+        local = mech.workspace()
+        if getattr(local, "token", None) != self.token:
+            pin.crba(mech.model, local.data, self.q)
+            pin.cholesky.decompose(mech.model, local.data)
+            local.token = self.token
+        if b.ndim == 1:
+            return pin.cholesky.solve(mech.model, local.data, b)
+        return np.column_stack([pin.cholesky.solve(mech.model, local.data, np.ascontiguousarray(col))
+                                for col in b.T]) if b.shape[1] else np.zeros(b.shape)
+
+
+@dataclass(frozen=True, eq=False)
+class Mechanism:
+    """A Pinocchio model with its workspace.
+
+    Attributes
+    ----------
+    model : pinocchio.Model
+        Kinematics and inertias.
+    name : str
+        Human-readable name (robot name or URDF stem).
+    source : pathlib.Path or None
+        URDF the model was built from.
+    """
+
+    model: Any
+    name: str = "mechanism"
+    source: Path | None = None
+    _local: threading.local = field(init=False, repr=False)
+    _frame_ids: dict[str, int] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, pin.Model):
+            raise ParameterError(f"model must be a pinocchio.Model, got {type(self.model).__name__}")
+        if self.model.nv == 0:
+            raise ParameterError(f"{self.name} has no degree of freedom (nv = 0): nothing can move")
+        object.__setattr__(self, "_local", threading.local())
+        object.__setattr__(self, "_frame_ids", {})
+
+    def workspace(self) -> threading.local:
+        """This thread's workspace (``.data``: a Pinocchio Data): a sequence of calls (crba,
+        then the Cholesky factor, then a solve) never sees another thread's intermediate state."""
+        local = self._local
+        if getattr(local, "data", None) is None:
+            local.data = self.model.createData()
+        return local
+
+    @property
+    def data(self) -> Any:
+        """This thread's Pinocchio workspace."""
+        return self.workspace().data
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # the workspace is per thread and per process: rebuild it on unpickling
+        return (type(self), (self.model, self.name, self.source))
+
+    # ------------------------------------------------------------ constructors
+    @classmethod
+    def from_urdf(cls, path: str | Path, floating: bool = False, name: str | None = None) -> Mechanism:
+        """Build from a URDF file (kinematics and inertias).
+
+        Parameters
+        ----------
+        path : str or Path
+            URDF file.
+        floating : bool
+            Add a free-flyer root joint (nq = nv + 1 for its quaternion).
+
+        Raises
+        ------
+        RobotNotFoundError
+            The file is missing or cannot be parsed.
+        """
+        if not isinstance(floating, bool):
+            raise ParameterError(f"floating must be True or False, got {floating!r}")
+        path = Path(path)
+        if not path.is_file():
+            raise RobotNotFoundError(f"URDF file {str(path)!r} not found")
+        try:
+            if floating:
+                model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+            else:
+                model = pin.buildModelFromUrdf(str(path))
+        except (RuntimeError, ValueError) as exc:
+            raise RobotNotFoundError(f"could not parse URDF {str(path)!r}: {exc}") from exc
+        return cls(model, name or path.stem, path)
+
+    @classmethod
+    def from_robot(cls, name: str, floating: bool | None = None) -> Mechanism:
+        """An example-robot-data robot by name (``"ur5"``, ``"panda"``, ``"solo12"``, ...).
+
+        Parameters
+        ----------
+        floating : bool, optional
+            Override the robot's default (legged and flying robots float).
+        """
+        path, default_floating = robot_urdf(name)
+        return cls.from_urdf(path, default_floating if floating is None else floating, name)
+
+    @classmethod
+    def from_model(cls, name: str, floating: bool = False) -> Mechanism:
+        """One of mbimpact's own models under ``models/`` (``"point_mass_2d"``, ...)."""
+        return cls.from_urdf(model_path(name), floating, name)
+
+    # ------------------------------------------------------------ dimensions
+    @property
+    def nq(self) -> int:
+        """Configuration dimension."""
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Velocity (tangent) dimension."""
+        return int(self.model.nv)
+
+    @property
+    def frame_names(self) -> list[str]:
+        """Names of all frames."""
+        return [f.name for f in self.model.frames]
+
+    def frame_id(self, frame: str) -> int:
+        """Index of a frame by name.
+
+        When several frames share the name (a link and its joint, e.g. in anymal_c),
+        the link's BODY frame is taken: contact points live on links.
+
+        Raises
+        ------
+        FrameNotFoundError
+            No frame of that name (the message lists close matches).
+        """
+        fid = self._frame_ids.get(frame)
+        if fid is not None:
+            return fid
+        if not isinstance(frame, str):
+            raise FrameNotFoundError(f"a frame is named by a string, got {type(frame).__name__}")
+        matches = [i for i, f in enumerate(self.model.frames) if f.name == frame]
+        if not matches:
+            names = self.frame_names
+            close = close_matches(frame, names)
+            hint = f"frames with {frame!r} or close to it: {', '.join(close)}" if close else (
+                f"{len(names)} frames, e.g. {', '.join(names[-5:])}"
+            )
+            raise FrameNotFoundError(f"frame {frame!r} not found in {self.name}; {hint}")
+        bodies = [i for i in matches if self.model.frames[i].type == pin.FrameType.BODY]
+        fid = self._frame_ids[frame] = (bodies or matches)[0]
+        return fid
+
+    # ------------------------------------------------------------ states
+    def neutral(self) -> NDArray[np.float64]:
+        """Neutral configuration (zeros, identity quaternions), shape (nq,)."""
+        return pin.neutral(self.model)
+
+    def random_configuration(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """A seeded random configuration within joint limits (±π where unbounded)."""
+        lo = np.where(np.isfinite(self.model.lowerPositionLimit), self.model.lowerPositionLimit, -np.pi)
+        hi = np.where(np.isfinite(self.model.upperPositionLimit), self.model.upperPositionLimit, np.pi)
+        lo, hi = np.maximum(lo, -np.pi), np.minimum(hi, np.pi)
+        hi = np.maximum(lo, hi)
+        x = rng.uniform(lo, hi)
+        return pin.normalize(self.model, x)
+
+    def check_configuration(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Validate ``q`` (nq,): finite, real, quaternions normalised.
+
+        Raises
+        ------
+        ShapeError, NonFiniteError, ParameterError
+        """
+        q = as_vector("q", q, self.nq)
+        # only quaternion and unit-complex joints (nq > nv) have a norm to check
+        if self.model.nq != self.model.nv and not pin.isNormalized(self.model, q, 1e-9):
+            raise ParameterError(
+                "q is not a valid configuration: a quaternion or unit-complex block is not normalised; "
+                "use pinocchio.normalize(model, q)"
+            )
+        return q
+
+    def check_state(self, q: ArrayLike, v: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Validate ``q`` (nq,) and ``v`` (nv,); quaternions must be normalised."""
+        return self.check_configuration(q), as_vector("v", v, self.nv)
+
+    # ------------------------------------------------------------ dynamics
+    def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
+        """A(q) from ``pin.crba`` (armature included), full symmetric, shape (nv, nv)."""
+        return pin.crba(self.model, self.data, self.check_configuration(q)).copy()
+
+    def factorise(self, q: NDArray[np.float64]) -> tuple[NDArray[np.float64], MassFactor]:
+        """A(q) and its sparse Cholesky factor (``pin.cholesky``), for a validated ``q``.
+
+        The factor is the one ``pin.impulseDynamics`` uses; it stays in this thread's
+        workspace, and :meth:`MassFactor.solve` rebuilds it if that was reused.
+        """
+        local = self.workspace()
+        A = pin.crba(self.model, local.data, q).copy()
+        pin.cholesky.decompose(self.model, local.data)
+        local.token = token = next(_TOKENS)
+        D = local.data.D
+        return A, MassFactor(self, q.copy(), token, bool(np.all(np.isfinite(D)) and D.min() > 0.0))
+
+    def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
+        """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
+        return pin.computeMinverse(self.model, self.data, self.check_configuration(q)).copy()
+
+    def point_jacobian(self, q: ArrayLike, frame: str, point: ArrayLike | None = None) -> NDArray[np.float64]:
+        """World-aligned translational Jacobian of a point fixed to a frame, shape (3, nv).
+
+        Parameters
+        ----------
+        q : array_like, shape (nq,)
+        frame : str
+            Frame the point is attached to.
+        point : array_like, shape (3,), optional
+            Offset of the point from the frame origin, in the frame's own axes.
+        """
+        q = self.check_configuration(q)
+        return self.frame_jacobian(q, self.frame_id(frame), _offset(point))
+
+    def frame_jacobian(self, q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None) -> NDArray[np.float64]:
+        """:meth:`point_jacobian` for a validated q, a frame index and an offset (hot path)."""
+        data = self.data
+        # computeFrameJacobian also updates data.oMf[fid], used for the offset below
+        J6 = np.asarray(pin.computeFrameJacobian(self.model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)).reshape(6, self.nv)
+        r = None if point is None else data.oMf[fid].rotation @ point
+        return offset_point_jacobian(J6, r)
+
+    def frame_position(self, q: ArrayLike, frame: str, point: ArrayLike | None = None) -> NDArray[np.float64]:
+        """World position of a point fixed to a frame, shape (3,)."""
+        q = self.check_configuration(q)
+        fid = self.frame_id(frame)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        M = self.data.oMf[fid]
+        p = _offset(point)
+        return M.translation + (M.rotation @ p if p is not None else 0.0)
+
+
+def _offset(point: ArrayLike | None) -> NDArray[np.float64] | None:
+    """A validated (3,) offset, or None for the frame origin."""
+    if point is None:
+        return None
+    p = as_array("point", point, 1, (3,))
+    return p if p.any() else None
+
+

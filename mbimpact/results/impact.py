@@ -1,0 +1,240 @@
+"""The outcome of an impact, able to check itself (stage 6 of the pipeline: I by (1.1))."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import quantities
+
+__all__ = ["ContactImpulses", "ImpactResult", "BatchResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class ContactImpulses:
+    """What a law's core returns: contact impulses for a batch of contact velocities.
+
+    Attributes
+    ----------
+    P : ndarray, shape (B, d)
+        Contact impulses.
+    error : ndarray, shape (B,)
+        Relative error estimates of ``P`` (0 when exact).
+    nodes : int
+        Facet nodes, samples or series terms of the final evaluation (what they count
+        depends on ``method``; 1 for closed forms).
+    method : str
+        How the impulse was computed: an averaging method of (2.8) (``"ring"``,
+        ``"adaptive"``, …; :data:`mbimpact.averaging.METHODS`), ``"closed-form"``
+        (Newton's law), ``"impulse-space"`` (Coulomb's law).
+    """
+
+    P: NDArray[np.float64]
+    error: NDArray[np.float64]
+    nodes: int = 1
+    method: str = "closed-form"
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactResult:
+    """Velocities and impulses of one impact, Lagrange's equations (1.1).
+
+    Attributes
+    ----------
+    v_minus, v_plus : ndarray, shape (n,)
+        Generalised velocity before and after the impact.
+    dv : ndarray, shape (n,)
+        Velocity jump Δv = A⁻¹ Jᵀ P (kept separately: v₊ − v₋ would lose digits
+        when the jump is small beside the velocity).
+    P : ndarray, shape (d,)
+        Contact impulse in world-aligned contact coordinates; I = Jᵀ P. When J is
+        rank-deficient, P is defined up to the null space of Jᵀ and the
+        minimum-norm impulse is reported.
+    u_minus, u_plus : ndarray, shape (d,)
+        Contact-point velocity J v before and after.
+    n0 : ndarray, shape (d,)
+        Unit base normal.
+    A : ndarray, shape (n, n)
+        The mass matrix the impact was computed with.
+    J : ndarray, shape (d, n)
+        The contact Jacobian.
+    law : ImpactLaw
+        The law that produced the result.
+    error_estimate : float
+        Estimated relative error of ``P`` (0 for laws and measures integrated exactly).
+    nodes : int
+        Facet nodes (or samples, or series terms) of the final evaluation.
+    method : str
+        How ``P`` was computed (see :class:`ContactImpulses`).
+    """
+
+    v_minus: NDArray[np.float64]
+    v_plus: NDArray[np.float64]
+    dv: NDArray[np.float64]
+    P: NDArray[np.float64]
+    u_minus: NDArray[np.float64]
+    u_plus: NDArray[np.float64]
+    n0: NDArray[np.float64]
+    A: NDArray[np.float64]
+    J: NDArray[np.float64]
+    law: Any
+    error_estimate: float = 0.0
+    nodes: int = 1
+    method: str = "closed-form"
+
+    def __post_init__(self) -> None:
+        for a in (self.v_minus, self.v_plus, self.dv, self.P, self.u_minus, self.u_plus, self.n0):
+            a.setflags(write=False)
+
+    @property
+    def I(self) -> NDArray[np.float64]:  # noqa: E743, N802 — the paper's name
+        """Generalised impulse I = A Δv = Jᵀ P, shape (n,), (1.1)."""
+        return self.J.T @ self.P
+
+    @property
+    def P_n(self) -> float:  # noqa: N802
+        """Normal contact impulse n⁰·P (≥ 0)."""
+        return float(self.n0 @ self.P)
+
+    @property
+    def P_t(self) -> NDArray[np.float64]:  # noqa: N802
+        """Tangential contact impulse P − (n⁰·P) n⁰, shape (d,)."""
+        return self.P - self.P_n * self.n0
+
+    @property
+    def mu(self) -> float:
+        """Impact friction ratio |P_t| / P_n, read in contact space (3.1)
+        (:func:`mbimpact.results.quantities.friction_ratio`)."""
+        return float(quantities.friction_ratio(self.n0, self.P))
+
+    @property
+    def kappa(self) -> float:
+        """Newton's restitution −(n⁰·u₊)/(n⁰·u₋), (1.2); may exceed 1 (4°), or be < 0 (see
+        :attr:`separates`)."""
+        return float(quantities.restitution(self.n0, self.u_minus, self.u_plus))
+
+    @property
+    def separates(self) -> bool:
+        """Whether the contact point leaves the surface, n⁰·u₊ ≥ 0 (up to rounding).
+
+        False when the averaged outcome (2.8) still approaches (κ < 0): further
+        micro-impacts follow (``RoughLaw(..., repeat=True)`` applies them).
+        """
+        return bool(quantities.separates(self.n0, self.u_minus, self.u_plus))
+
+    @property
+    def energy_loss(self) -> float:
+        """Kinetic energy lost, T₋ − T₊ (≥ 0 for every law here), −Pᵀ(u₋ + u₊)/2."""
+        return float(quantities.energy_loss(self.P, self.u_minus, self.u_plus))
+
+    @property
+    def T_minus(self) -> float:  # noqa: N802
+        """Kinetic energy before the impact, ½ v₋ᵀ A v₋."""
+        return 0.5 * float(self.v_minus @ self.A @ self.v_minus)
+
+    @property
+    def T_plus(self) -> float:  # noqa: N802
+        """Kinetic energy after the impact, ½ v₊ᵀ A v₊."""
+        return 0.5 * float(self.v_plus @ self.A @ self.v_plus)
+
+    @property
+    def residual(self) -> float:
+        """Relative residual of (1.1), |A Δv − Jᵀ P| / |Jᵀ P|."""
+        impulse = self.I
+        scale = float(np.linalg.norm(impulse)) or 1.0
+        return float(np.linalg.norm(self.A @ self.dv - impulse)) / scale
+
+    def summary(self) -> str:
+        """One line with κ, μ, the energy loss, the post-impact contact velocity and the method."""
+        return (
+            f"{self.law!r}: kappa={self.kappa:.6g} mu={self.mu:.6g} "
+            f"energy_loss={self.energy_loss:.6g} u_plus={np.array2string(self.u_plus, precision=6)} "
+            f"({self.method}, {self.nodes} nodes)"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """Results of many impacts evaluated together (rows), see :class:`ImpactResult`.
+
+    ``A`` and ``J`` are shared, shapes (n, n) and (d, n), for a batch at one
+    configuration, or per row, shapes (B, n, n) and (B, d, n); ``n0`` is (d,) or (B, d).
+    """
+
+    V_minus: NDArray[np.float64]
+    V_plus: NDArray[np.float64]
+    dV: NDArray[np.float64]
+    P: NDArray[np.float64]
+    U_minus: NDArray[np.float64]
+    U_plus: NDArray[np.float64]
+    n0: NDArray[np.float64]
+    A: NDArray[np.float64]
+    J: NDArray[np.float64]
+    law: Any
+    error_estimate: NDArray[np.float64]
+    nodes: int = 1
+    method: str = "closed-form"
+
+    @classmethod
+    def stack(cls, results: list[ImpactResult]) -> BatchResult:
+        """Rows of single results (one configuration each)."""
+        def stack(name: str) -> NDArray[np.float64]:
+            return np.stack([getattr(r, name) for r in results])
+
+        methods = sorted({r.method for r in results})
+        return cls(
+            V_minus=stack("v_minus"), V_plus=stack("v_plus"), dV=stack("dv"), P=stack("P"),
+            U_minus=stack("u_minus"), U_plus=stack("u_plus"), n0=stack("n0"), A=stack("A"), J=stack("J"),
+            law=results[0].law, error_estimate=np.array([r.error_estimate for r in results]),
+            nodes=max(r.nodes for r in results), method="+".join(methods),
+        )
+
+    def __len__(self) -> int:
+        return int(self.V_minus.shape[0])
+
+    def __getitem__(self, i: int) -> ImpactResult:
+        """The i-th impact as an :class:`ImpactResult`."""
+        A = self.A[i] if self.A.ndim == 3 else self.A
+        J = self.J[i] if self.J.ndim == 3 else self.J
+        n0 = self.n0[i] if self.n0.ndim == 2 else self.n0
+        return ImpactResult(
+            v_minus=self.V_minus[i].copy(), v_plus=self.V_plus[i].copy(), dv=self.dV[i].copy(),
+            P=self.P[i].copy(), u_minus=self.U_minus[i].copy(), u_plus=self.U_plus[i].copy(),
+            n0=n0.copy(), A=A, J=J, law=self.law, error_estimate=float(self.error_estimate[i]), nodes=self.nodes,
+            method=self.method,
+        )
+
+    @property
+    def I(self) -> NDArray[np.float64]:  # noqa: E743, N802
+        """Generalised impulses Jᵀ P per row, shape (B, n)."""
+        if self.J.ndim == 3:
+            return np.einsum("bdn,bd->bn", self.J, self.P)
+        return self.P @ self.J
+
+    @property
+    def P_n(self) -> NDArray[np.float64]:  # noqa: N802
+        """Normal contact impulses, shape (B,)."""
+        return quantities.normal_part(self.n0, self.P)
+
+    @property
+    def mu(self) -> NDArray[np.float64]:
+        """Friction ratios |P_t| / P_n, shape (B,)."""
+        return quantities.friction_ratio(self.n0, self.P)
+
+    @property
+    def kappa(self) -> NDArray[np.float64]:
+        """Newton restitutions −(n⁰·u₊)/(n⁰·u₋), shape (B,)."""
+        return quantities.restitution(self.n0, self.U_minus, self.U_plus)
+
+    @property
+    def separates(self) -> NDArray[np.bool_]:
+        """Whether each contact leaves the surface (see :attr:`ImpactResult.separates`), shape (B,)."""
+        return quantities.separates(self.n0, self.U_minus, self.U_plus)
+
+    @property
+    def energy_loss(self) -> NDArray[np.float64]:
+        """T₋ − T₊ per row, −Pᵀ(u₋ + u₊)/2, shape (B,)."""
+        return quantities.energy_loss(self.P, self.U_minus, self.U_plus)

@@ -1,0 +1,48 @@
+"""``mbimpact bench --quick``: report, CSV and PNG, with measurements that make sense."""
+
+import csv
+
+from mbimpact.apps.cli import main
+
+
+def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
+    assert main(["bench", "--quick", "--no-progress", "--out", str(tmp_path)]) == 0
+    text = capsys.readouterr().out
+    for heading in ("Accuracy vs time", "Per-call cost against Pinocchio", "Batch throughput", "Compliant route"):
+        assert heading in text
+    assert (tmp_path / "bench.png").stat().st_size > 10_000
+    with (tmp_path / "bench.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    acc = [r for r in rows if r["part"] == "accuracy"]
+    # the exact-arc rule reaches 1e-12 with 64 nodes in every regime, uniform sampling does not
+    regular = [r for r in acc if "singular" not in r["case"]]
+    at64 = [r for r in regular if r["method"] == "exact-arc quadrature" and float(r["param"]) == 64]
+    assert at64 and all(float(r["error"]) <= 1e-12 for r in at64)
+    truncated = [r for r in regular if "beta=75" in r["case"] and r["method"] == "uniform sampling"]
+    assert truncated and all(float(r["error"]) > 1e-9 for r in truncated)
+    mc = [r for r in regular if r["method"] == "Monte Carlo"]
+    assert all(1e-5 < float(r["error"]) < 0.2 for r in mc)
+    # near-singular posture: the graded rule converges (to rounding amplified by cond W), sampling does not
+    singular = [r for r in acc if "singular" in r["case"]]
+    at64 = [r for r in singular if r["method"] == "exact-arc quadrature" and float(r["param"]) == 64]
+    assert at64 and all(float(r["error"]) <= 1e-10 for r in at64)
+    sampled = [float(r["error"]) for r in singular if r["method"] in ("uniform sampling", "Monte Carlo")]
+    assert sampled and min(sampled) > 1e6 * max(float(r["error"]) for r in at64)
+    # Gaussian slopes there: graded in tilt and azimuth, adaptive reaches ~1e-11; Monte Carlo does not
+    slopes = {(r["method"], float(r["param"])): float(r["error"]) for r in acc if "GaussianSlopes" in r["case"]}
+    graded = [slopes["graded tilt x azimuth", n] for n in (8, 16, 32)]
+    assert graded == sorted(graded, reverse=True) and graded[-1] < 1e-10
+    assert slopes["adaptive (rtol=1e-12)", 0] < 1e-10
+    assert slopes["Monte Carlo", 100_000] > 1e-3
+    over = [r for r in rows if r["part"] == "overhead"]
+    assert {r["case"] for r in over} >= {"ur5", "solo12"}
+    assert all(float(r["ratio"]) > 0 for r in over)
+    for robot in ("ur5", "solo12"):  # the floor and the Pinocchio calls are parts of the Newton impact's cost
+        t = {r["method"]: float(r["seconds"]) for r in over if r["case"] == robot}
+        assert t["validation + result object only (no physics)"] < t["impact, NewtonLaw"]
+        assert t["Pinocchio calls inside impact(NewtonLaw) only"] < t["impact, NewtonLaw"]
+    assert all(float(r["ratio"]) > 0 for r in rows if r["part"] == "batch")
+    comp = [r for r in rows if r["part"] == "compliant" and r["method"].startswith("resolve")]
+    errs = [float(r["error"]) for r in sorted(comp, key=lambda r: float(r["param"]))]
+    assert errs == sorted(errs, reverse=True) and errs[-1] < 1e-4  # O(1/M) towards the closed law
+    assert all(float(r["ratio"]) > 1e3 for r in comp)  # against the batched closed law

@@ -1,0 +1,48 @@
+"""The main job, ``mbimpact demo``."""
+
+import csv
+import subprocess
+import sys
+
+import pytest
+
+import mbimpact as mbi
+from mbimpact.apps.cli import main
+from mbimpact.apps.demo import demo_rows
+
+
+def test_demo_prints_table_and_writes_csv(tmp_path, capsys):
+    out = tmp_path / "demo.csv"
+    assert main(["demo", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "| Newton (frictionless) | 20 |" in text and "rough, cone alpha=0.4" in text
+    with out.open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 8
+    newton = [r for r in rows if r["law"].startswith("Newton")]
+    assert all(float(r["kappa"]) == pytest.approx(0.8) and float(r["mu"]) == 0.0 for r in newton)
+
+
+def test_demo_physics():
+    """Rough rows: friction grows with roughness; at 60° the restitution exceeds Newton's (4°)."""
+    rows = demo_rows()
+    for beta in (20.0, 60.0):
+        rough = [r for r in rows if r.beta_deg == beta and r.law.startswith("rough")]
+        assert all(r.u_t_plus > 0 for r in rough)
+        mus = [r.mu for r in rough]
+        assert mus == sorted(mus) and mus[0] > 0
+        assert all(r.energy_loss > 0 for r in rows if r.beta_deg == beta)
+    steep = [r for r in rows if r.beta_deg == 60.0 and r.law.endswith("0.4")][0]
+    assert steep.kappa > 1.0
+
+
+def test_python_m_mbimpact_demo():
+    done = subprocess.run([sys.executable, "-m", "mbimpact", "demo"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "UR5 tool0" in done.stdout
+
+
+def test_models_are_shipped_with_the_package():
+    assert {"point_mass_2d", "point_mass_3d", "planar_rod", "double_pendulum"} <= set(mbi.model_names())
+    for name in mbi.model_names():
+        assert mbi.Mechanism.from_model(name).nv >= 2
