@@ -1,6 +1,6 @@
 """The paper's Fig. 1 and claims 1°–5° of section 3, computed by the library.
 
-Every figure has a data function (tested against the closed forms of THEORY.md)
+Every figure has a data function (tested against the closed forms of :mod:`mbimpact.theory`)
 and a plotting function; ``mbimpact figures --out DIR`` writes them all.
 """
 
@@ -12,11 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..laws import CoulombLaw
-from ..laws import NewtonLaw
-from ..roughness import Profile
-from ..laws import RoughLaw
-from ..roughness import Cone, Sawtooth
+from typing import Any
+
+from numpy.typing import ArrayLike, NDArray
+
+from ..common.validation import as_array
+from ..errors import ParameterError
+from ..laws import CoulombLaw, NewtonLaw, RoughLaw
+from ..roughness import Cone, Profile, Sawtooth
 
 __all__ = ["fig1_data", "sawtooth_mu", "claims_data", "rough_vs_coulomb_data", "write_all"]
 
@@ -105,6 +108,92 @@ def rough_vs_coulomb_data(alpha: float = 0.4, e: float = 0.8, mu: float | None =
     return {"beta_deg": beta, "mu_coulomb_param": np.array(mu), **{k: np.array(v) for k, v in out.items()}}
 
 
+def shadowing_data(profile: Profile, u: ArrayLike) -> dict[str, NDArray[np.float64]]:
+    """The parts of a measured profile that an approach along ``u`` reaches first (Fig. 2).
+
+    Parameters
+    ----------
+    profile : Profile
+        A planar measured relief.
+    u : array_like, shape (2,)
+        Approach velocity (tangential, normal), normal component < 0.
+
+    Returns
+    -------
+    dict
+        ``x``, ``h``: the profile; ``lit`` (S, 2, 2): the reached piece of every segment as
+        two (x, h) points (zero length when the segment is shadowed or faces away);
+        ``fraction``: the reached fraction of each segment (:meth:`Profile.lit_fraction`).
+    """
+    if not isinstance(profile, Profile):
+        raise ParameterError(f"shadowing figures need a Profile, got {type(profile).__name__}")
+    u = as_array("u", u, 1, (2,))
+    if not u[1] < 0:
+        raise ParameterError(f"u must approach the base line (u[1] < 0), got {u.tolist()}")
+    h = profile.heights
+    x = profile.dx * np.arange(h.size)
+    frac = profile.lit_fraction(u)
+    # a segment is reached from its downstream end on (the running maximum of the heights seen
+    # along the approach): the end the motion goes towards
+    x0, x1, h0, h1 = x[:-1], x[1:], h[:-1], h[1:]
+    if u[0] >= 0:
+        start = (x1 - frac * profile.dx, h1 - frac * (h1 - h0))
+        lit = np.stack([np.column_stack(start), np.column_stack([x1, h1])], axis=1)
+    else:
+        end = (x0 + frac * profile.dx, h0 + frac * (h1 - h0))
+        lit = np.stack([np.column_stack([x0, h0]), np.column_stack(end)], axis=1)
+    return {"x": x, "h": h, "lit": lit, "fraction": frac}
+
+
+def plot_shadowing(profile: Profile, u: ArrayLike, ax: Any = None, rays: int = 9) -> Any:
+    """Draw a profile with the parts an approach along ``u`` reaches first (the idea of the
+    paper's Fig. 2): reached parts bold, shadowed ones thin, a few approach lines.
+
+    Parameters
+    ----------
+    profile : Profile
+    u : array_like, shape (2,)
+    ax : matplotlib Axes, optional
+        Where to draw (a new figure otherwise).
+    rays : int
+        Number of approach lines drawn (each stops where it first meets the profile).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    import matplotlib.pyplot as plt
+
+    d = shadowing_data(profile, u)
+    u = np.asarray(u, dtype=float)
+    if ax is None:
+        _, ax = plt.subplots(figsize=(8, 3))
+    ax.plot(d["x"], d["h"], color="0.6", lw=1, label="shadowed or facing away")
+    for (a, b), f in zip(d["lit"], d["fraction"]):
+        if f > 0:
+            ax.plot([a[0], b[0]], [a[1], b[1]], color="C3", lw=2.5)
+    ax.plot([], [], color="C3", lw=2.5, label="reached first")
+    x, h = d["x"], d["h"]
+    span = float(x[-1] - x[0])
+    relief = float(h.max() - h.min()) or 1.0
+    top = float(h.max()) + 0.6 * relief
+    slope = u[0] / -u[1]  # horizontal travel per unit of descent
+    drop = top - float(h.min())
+    t = np.linspace(0.0, 1.0, 8001)
+    for x_start in np.linspace(x[0], x[-1], rays) - slope * (top - float(h.mean())):
+        path = np.column_stack([x_start + slope * drop * t, top - drop * t])
+        inside = (path[:, 0] >= x[0]) & (path[:, 0] <= x[-1])
+        hit = inside & (path[:, 1] <= np.interp(path[:, 0], x, h))
+        if hit.any():  # each line stops where it first meets the profile
+            ax.annotate("", xy=path[int(np.argmax(hit))], xytext=path[0],
+                        arrowprops={"arrowstyle": "->", "color": "C0", "lw": 0.8})
+    # heights exaggerated, as profiles usually are: an affine map keeps lines straight and the
+    # first point a line meets the first point, so the reached parts are drawn truthfully
+    ax.set(xlabel="x", ylabel="height", xlim=(x[0], x[-1]), ylim=(float(h.min()) - 0.1 * relief, top))
+    ax.legend(fontsize=8, loc="lower left", framealpha=0.9)
+    return ax
+
+
 def _save(fig: object, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
@@ -115,7 +204,7 @@ def _save(fig: object, path: Path) -> Path:
 
 
 def write_all(out: str | Path) -> list[Path]:
-    """Write fig1.png, claims.png, rough_vs_coulomb.png, stability_map.png and fig1.csv into ``out``."""
+    """Write fig1.png, fig2.png, claims.png, rough_vs_coulomb.png, stability_map.png and fig1.csv into ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -136,6 +225,18 @@ def write_all(out: str | Path) -> list[Path]:
         w.writerow(list(d))
         w.writerows(zip(*d.values()))
     written.append(out / "fig1.csv")
+
+    # Fig. 2's idea on a measured-like profile: what two approach directions reach first
+    rng = np.random.default_rng(2)
+    heights = np.cumsum(rng.normal(0.0, 0.04, 41))
+    heights -= np.linspace(heights[0], heights[-1], heights.size)  # periodic
+    profile = Profile(heights, 0.05, shadowing=True, periodic=True)
+    fig, axes = plt.subplots(2, 1, figsize=(9, 5.5))
+    for ax, (ut, title) in zip(axes, ((0.5, "steep incidence, tan β = 0.5"), (3.0, "grazing incidence, tan β = 3"))):
+        plot_shadowing(profile, [ut, -1.0], ax)
+        ax.set_title(f"Fig. 2: parts of a profile reached first ({title})")
+    fig.tight_layout()
+    written.append(_save(fig, out / "fig2.png"))
 
     c = claims_data()
     fig, axes = plt.subplots(1, 5, figsize=(22, 4))

@@ -2,7 +2,7 @@
 
 A facet tilted by α from n⁰ has normal m = (sin α · l, cos α) with l a unit tangent
 direction, uniform (spatial) or ± with probability ½ each (planar). The measure is
-given by a density of α over the facets' *true* area (THEORY §3).
+given by a density of α over the facets' *true* area (:mod:`mbimpact.theory`, §3).
 
 Averaging is a product rule: Gauss–Legendre in α, split where the cone of tilt α
 begins to be cut by G* (α* = atan(|u_n| / |u_t|)), times the exact facing arc of

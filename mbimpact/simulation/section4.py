@@ -2,12 +2,13 @@
 
 For an isotropic roughness the rough law, linearised about a normal impact,
 reduces the tangential velocity by Δv_l = −λ v_l (4.1) and restitutes the
-normal one with κ of (4.2) (corrected forms, THEORY §9):
+normal one with κ of (4.2) (corrected forms, :mod:`mbimpact.theory`, §8):
 
     λ = 2(1+e) E[sin²α cos α] / ((d−1) E[cos α]),   1 + κ = (1+e) E[cos³α] / E[cos α].
 
 The periodic bouncing along the axis (period m surface periods) is stable for
-0 < ρ⁻¹ < B = (2−λ)(1+κ) / (2π²m²(1+κ−λ)) (4.3), ρ in units of g/ω².
+0 < ρ⁻¹/B < 1, B = (2−λ)(1+κ) / (2π²m²(1+κ−λ)) (4.3), ρ in units of g/ω²: a cup when
+B > 0, a dome when B < 0.
 """
 
 from __future__ import annotations
@@ -17,35 +18,68 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
-from ..common.validation import as_scalar
+from ..common.validation import as_count, as_scalar
 from ..errors import ParameterError, RoughnessError
-from ..roughness import Cone, Facets, Roughness, Sawtooth, Smooth
-from ..roughness.slopes import IsotropicSlopes
+from ..roughness import Cone, IsotropicSlopes, Roughness
 
-__all__ = ["Stability", "tilt_moments", "stability", "Orbit", "periodic_orbit", "deviation_run", "deviation_grows", "stability_map"]
+__all__ = ["Stability", "isotropic_moments", "stability", "Orbit", "periodic_orbit", "deviation_run", "deviation_grows", "stability_map"]
 
 
-def tilt_moments(roughness: Roughness) -> tuple[int, Callable[[Callable[[np.ndarray], np.ndarray]], float]]:
-    """Tangent dimension d − 1 and E[·] over the facet tilts of an isotropic measure."""
-    if isinstance(roughness, Smooth):
-        return 2, lambda f: float(f(np.zeros(1))[0])
-    if isinstance(roughness, (Cone, Sawtooth)):
+def isotropic_moments(roughness: Roughness) -> tuple[int, Callable[[Callable[[NDArray[np.float64]], NDArray[np.float64]]], float]]:
+    """Tangent dimension d − 1 and E[f(α)] over the facet tilts of an isotropic measure.
+
+    Section 4 linearises the law about a normal impact. That needs an isotropic measure:
+    with facets (sin α · l, cos α) of weights p, the tangential moments Σ p sin α l and
+    Σ p cos²α sin α l must vanish (a normal impact gives no horizontal kick, so the
+    periodic motion along the axis exists) and Σ p cos α sin²α l lᵀ must be a multiple of
+    the identity (the horizontal response (4.1) is a scalar λ). Cones, sawtooths and tilt
+    densities are isotropic by construction; a finite set of facets (or a measured relief)
+    is checked.
+
+    Raises
+    ------
+    RoughnessError
+        The measure is not isotropic.
+    """
+    if isinstance(roughness, Cone):
         a = np.array([roughness.alpha])
-        return (2 if isinstance(roughness, Cone) else 1), lambda f: float(f(a)[0])
+        return 2, lambda f: float(f(a)[0])
     if isinstance(roughness, IsotropicSlopes):
         return roughness.dim - 1, roughness.moment
-    if isinstance(roughness, Facets):
-        m = roughness.normals
-        tilt = np.arccos(np.clip(m[:, -1], -1.0, 1.0))
-        w = roughness.weights
-        return m.shape[1] - 1, lambda f: float(w @ f(tilt))
-    raise RoughnessError(f"{roughness!r} is not an isotropic measure with known tilts")
+    if not roughness.exact:
+        raise RoughnessError(f"{roughness!r} has no known tilt moments for section 4")
+    d = roughness.dim or 3
+    normal = np.zeros((1, d))
+    normal[0, -1] = -1.0
+    m, p = roughness.rule_batch(normal, 1)  # at normal incidence no facet is shadowed
+    m, p = (m[0], p[0]) if m.ndim == 3 else (m, np.broadcast_to(p, (len(m),)) if p.ndim == 1 else p[0])
+    p = p / p.sum()
+    t, c = m[:, :-1], m[:, -1]
+    scale = float(p @ np.linalg.norm(t, axis=1)) or 1.0
+    first = max(float(np.abs(p @ t).max()), float(np.abs((p * c * c) @ t).max()))
+    second = (t * (p * c)[:, None]).T @ t
+    spread = float(np.abs(second - np.trace(second) / (d - 1) * np.eye(d - 1)).max())
+    if first > 1e-9 * scale or spread > 1e-9 * scale:
+        raise RoughnessError(
+            f"{roughness!r} is not isotropic (tangential moments {first:.3g}, anisotropy {spread:.3g}): "
+            "the periodic motion along the axis of section 4 needs an isotropic measure (a cone, a sawtooth, "
+            "a tilt density, or facets whose moments Σ p sin α l and Σ p cos²α sin α l vanish and whose "
+            "Σ p cos α sin²α l lᵀ is a multiple of the identity)"
+        )
+    tilt = np.arccos(np.clip(c, -1.0, 1.0))
+    return d - 1, lambda f: float(p @ f(tilt))
 
 
 @dataclass(frozen=True)
 class Stability:
-    """λ of (4.1), κ of (4.2) and the bound B of (4.3); ``stabilisable`` is B > 0."""
+    """λ of (4.1), κ of (4.2) and the bound B of (4.3) for the period-m motion along the axis.
+
+    The horizontal deviation is stable iff 0 < λ < 2 and 0 < ρ⁻¹ / B < 1 (ρ in units of
+    g/ω²): a cup (ρ > 0) with ρ⁻¹ < B when B > 0, a dome (ρ < 0) with B < ρ⁻¹ when B < 0
+    (1 + κ < λ, planar roughness only).
+    """
 
     lam: float
     kappa: float
@@ -53,25 +87,47 @@ class Stability:
 
     @property
     def stabilisable(self) -> bool:
-        """Some surface curvature stabilises the motion (false when 1 + κ < λ ≤ 2)."""
-        return self.B > 0
+        """Some surface curvature (a cup or a dome) stabilises the motion."""
+        return 0.0 < self.lam < 2.0 and math.isfinite(self.B) and self.B != 0.0
+
+    @property
+    def surface(self) -> str:
+        """The shape that stabilises: ``"cup"`` (B > 0), ``"dome"`` (B < 0), or ``"none"``."""
+        if not self.stabilisable:
+            return "none"
+        return "cup" if self.B > 0 else "dome"
 
     def stable(self, inv_rho: float) -> bool:
-        """Whether 0 < ρ⁻¹ < B (ρ in units of g/ω²)."""
-        return 0.0 < inv_rho < self.B
+        """Whether the motion is stable on a surface of curvature ρ⁻¹ (units of ω²/g): 0 < ρ⁻¹/B < 1."""
+        return self.stabilisable and 0.0 < inv_rho / self.B < 1.0
+
+    def growth(self, inv_rho: float, m: int) -> float:
+        """ln of the largest |eigenvalue| of the linear 2×2 map over one period of the motion
+        (< 0: the deviation decays), for curvature ρ⁻¹ in units of ω²/g."""
+        aT = (1.0 + self.kappa - self.lam) * 4.0 * math.pi**2 * m**2 * inv_rho / (1.0 + self.kappa)
+        tr, det = 2.0 - self.lam - aT, 1.0 - self.lam
+        eig = np.roots([1.0, -tr, det])
+        return float(np.log(np.abs(eig).max()))
 
 
 def stability(roughness: Roughness, e: float, m: int) -> Stability:
-    """λ, κ and B for an isotropic roughness, facet restitution e, period ratio m."""
+    """λ, κ and B for an isotropic roughness, facet restitution e, period ratio m (4.1)–(4.3).
+
+    Raises
+    ------
+    RoughnessError
+        The measure is not isotropic (:func:`isotropic_moments`).
+    ParameterError
+        e outside [0, 1], m not a positive integer.
+    """
     e = as_scalar("e", e, 0.0, 1.0)
-    if int(m) != m or m < 1:
-        raise ParameterError(f"m (period of the motion / period of the surface) must be a positive integer, got {m}")
-    dm1, E = tilt_moments(roughness)
+    m = as_count("m (period of the motion / period of the surface)", m, 1, 1000)
+    dm1, E = isotropic_moments(roughness)
     ec = E(np.cos)
     lam = 2 * (1 + e) * E(lambda a: np.sin(a) ** 2 * np.cos(a)) / (dm1 * ec)
     one_k = (1 + e) * E(lambda a: np.cos(a) ** 3) / ec
     denom = 2 * math.pi**2 * m**2 * (one_k - lam)
-    B = (2 - lam) * one_k / denom if denom != 0 else -math.inf
+    B = (2 - lam) * one_k / denom if denom != 0 else math.inf
     return Stability(lam, one_k - 1, B)
 
 
@@ -118,7 +174,7 @@ def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, period
     g = 9.81
     orbit = periodic_orbit(st.kappa, m, frequency, g)
     w = 2 * math.pi * frequency
-    rho = (g / w**2) / inv_rho if inv_rho > 0 else math.inf
+    rho = (g / w**2) / inv_rho if inv_rho != 0 else math.inf  # ρ < 0: a dome
     surface = Surface("paraboloid" if math.isfinite(rho) else "plane", rho=rho, amplitude=orbit.amplitude,
                       frequency=frequency, phase=orbit.phase)
     z0 = orbit.amplitude * math.sin(orbit.phase) + x0**2 / (2 * rho) + 1e-9

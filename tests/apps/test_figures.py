@@ -46,7 +46,7 @@ def test_constructive_and_axiomatic_laws_disagree_qualitatively():
 
 def test_figures_command_writes_pngs(tmp_path, capsys):
     assert main(["figures", "--out", str(tmp_path)]) == 0
-    for name in ("fig1.png", "claims.png", "rough_vs_coulomb.png", "stability_map.png"):
+    for name in ("fig1.png", "fig2.png", "claims.png", "rough_vs_coulomb.png", "stability_map.png"):
         assert (tmp_path / name).stat().st_size > 10_000
     with (tmp_path / "fig1.csv").open() as fh:
         rows = list(csv.DictReader(fh))
@@ -83,3 +83,38 @@ def test_compare_api_approach_velocity():
 def test_compare_errors_are_reported(capsys):
     assert main(["compare", "--frame", "tool"]) == 2
     assert "tool0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("u", [[0.7, -1.0], [-2.5, -1.0], [4.0, -1.0]])
+def test_fig2_reached_parts_are_where_straight_approaches_first_meet_the_profile(u):
+    """Independent check of Fig. 2's data: march 400 straight lines along u from above the profile;
+    each first meets it inside a piece drawn as reached, and pieces drawn as reached are met."""
+    rng = np.random.default_rng(5)
+    heights = np.append(rng.uniform(0.0, 0.6, 12), 0.0)
+    heights[0] = 0.0
+    profile = mbi.Profile(heights, 0.1, shadowing=True, periodic=False)
+    d = figures.shadowing_data(profile, u)
+    x, h = d["x"], d["h"]
+    pieces = [(min(a[0], b[0]), max(a[0], b[0])) for (a, b), f in zip(d["lit"], d["fraction"]) if f > 0]
+    np.testing.assert_allclose([hi - lo for lo, hi in pieces], (d["fraction"] * 0.1)[d["fraction"] > 0], rtol=1e-12)
+    u = np.array(u) / abs(u[1])
+    t = np.linspace(0.0, 1.0, 100_001)
+    hits = []
+    for x_start in np.linspace(x[0] - abs(u[0]), x[-1] + abs(u[0]), 800):
+        px, pz = x_start + u[0] * t, 1.0 - t
+        inside = (px >= x[0]) & (px <= x[-1])
+        below = inside & (pz <= np.interp(px, x, h))
+        if below.any() and inside[: int(np.argmax(below))].any():  # entered over the profile, not its ends
+            hits.append(px[int(np.argmax(below))])
+    assert len(hits) > 100
+    tol = 2.0 * abs(u[0]) * (t[1] - t[0]) + 1e-12
+    assert all(any(lo - tol <= xh <= hi + tol for lo, hi in pieces) for xh in hits)
+    assert all(any(lo - 0.02 <= xh <= hi + 0.02 for xh in hits) for lo, hi in pieces if hi - lo > 0.03)
+    assert 0 < len(pieces) < len(d["fraction"]) or u[0] == 0.7  # grazing approaches leave parts unreached
+
+
+def test_fig2_refuses_what_it_cannot_draw():
+    with pytest.raises(mbi.ParameterError, match="Profile"):
+        figures.shadowing_data(mbi.Sawtooth(0.3), [1.0, -1.0])  # type: ignore[arg-type]
+    with pytest.raises(mbi.ParameterError, match="approach"):
+        figures.shadowing_data(mbi.Profile([0.0, 1.0, 0.0], 1.0), [1.0, 1.0])

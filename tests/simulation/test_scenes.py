@@ -1,6 +1,8 @@
 """Scenes: validation, the simulator's declared-effects-only work, hard cases, section 4."""
 
 
+import math
+
 import numpy as np
 import pytest
 
@@ -91,8 +93,30 @@ def test_vibro_formulas_match_the_linearised_rough_law():
         assert -res.dv[0] / 1e-7 == pytest.approx(st.lam, rel=1e-6)  # (4.1)
         assert res.kappa == pytest.approx(st.kappa, rel=1e-9)  # (4.2)
     st = mbi.section4.stability(mbi.Sawtooth(0.7), 1.0, 1)
-    assert 1 + st.kappa < st.lam <= 2 and not st.stabilisable
+    assert 1 + st.kappa < st.lam <= 2 and st.B < 0 and st.stabilisable and st.surface == "dome"
+    assert st.stable(0.5 * st.B) and not st.stable(1.5 * st.B) and not st.stable(0.01)
     assert mbi.section4.stability(mbi.Cone(0.3), 0.8, 2).B == pytest.approx(mbi.section4.stability(mbi.Cone(0.3), 0.8, 1).B / 4)
+    cup = mbi.section4.stability(mbi.Cone(0.3), 0.8, 1)
+    assert cup.surface == "cup" and cup.stable(0.5 * cup.B) and not cup.stable(-0.1) and not cup.stable(1.01 * cup.B)
+    # the boundary of (4.3) is where the linear map's largest eigenvalue reaches the unit circle
+    for st in (cup, mbi.section4.stability(mbi.Sawtooth(0.7), 1.0, 2)):
+        m = 1 if st is cup else 2
+        assert st.growth(0.999 * st.B, m) < 0 < st.growth(1.001 * st.B, m)
+
+
+def test_section_4_refuses_a_measure_that_is_not_isotropic():
+    tilted = mbi.Facets(np.array([[0.3, 0.0, math.sqrt(0.91)]]))
+    with pytest.raises(mbi.RoughnessError, match="not isotropic"):
+        mbi.section4.stability(tilted, 0.8, 1)
+    with pytest.raises(mbi.RoughnessError, match="not isotropic"):  # a ring of 3 facets: isotropic to 2nd order? no
+        mbi.section4.stability(mbi.Facets(np.array([[0.3, 0.0, math.sqrt(0.91)], [-0.3, 0.0, math.sqrt(0.91)]])), 0.8, 1)
+    four = np.array([[0.3, 0.0, math.sqrt(0.91)], [-0.3, 0.0, math.sqrt(0.91)],
+                     [0.0, 0.3, math.sqrt(0.91)], [0.0, -0.3, math.sqrt(0.91)]])  # square symmetry: isotropic here
+    st = mbi.section4.stability(mbi.Facets(four), 0.8, 1)
+    cone = mbi.section4.stability(mbi.Cone(math.asin(0.3)), 0.8, 1)
+    assert st.lam == pytest.approx(cone.lam, rel=1e-12) and st.kappa == pytest.approx(cone.kappa, rel=1e-12)
+    with pytest.raises(mbi.ParameterError, match="m"):
+        mbi.section4.stability(mbi.Cone(0.3), 0.8, 0)
 
 
 @pytest.mark.parametrize("rough, e, m", [(mbi.Cone(0.3), 0.8, 1), (mbi.Cone(0.3), 0.8, 2), (mbi.Cone(0.5), 0.8, 1),
@@ -106,11 +130,17 @@ def test_section_4_deviation_decays_below_B_and_grows_above(rough, e, m):
     assert np.abs(above[:12]).max() > 10 * x0
 
 
-def test_section_4_unstable_for_every_shape_when_lambda_exceeds_one_plus_kappa():
+def test_section_4_a_dome_stabilises_when_lambda_exceeds_one_plus_kappa():
+    """The paper's remark says no shape does; a dome with B < ρ⁻¹ < 0 does, a cup does not."""
     rough = mbi.Sawtooth(0.7)
-    assert not mbi.section4.stability(rough, 1.0, 1).stabilisable
-    x = mbi.section4.deviation_run(rough, 1.0, 1, 0.01, periods=16, x0=1e-4)
-    assert np.all(np.diff(np.abs(x[:10])) > 0)
+    st = mbi.section4.stability(rough, 1.0, 1)
+    assert st.B < 0
+    dome = mbi.section4.deviation_run(rough, 1.0, 1, 0.5 * st.B, periods=24, x0=1e-4)
+    steep = mbi.section4.deviation_run(rough, 1.0, 1, 2.0 * st.B, periods=16, x0=1e-4)
+    cup = mbi.section4.deviation_run(rough, 1.0, 1, 0.01, periods=16, x0=1e-4)
+    assert abs(dome[-1]) < 0.2 * 1e-4
+    assert st.growth(2.0 * st.B, 1) > 0 and np.abs(steep).max() > 10 * 1e-4
+    assert st.growth(0.01, 1) > 0 and abs(cup[-1]) > 3 * 1e-4
 
 
 def test_run_command_writes_csv_and_png(tmp_path, capsys):
