@@ -69,6 +69,8 @@ from .roughness import (
     Smooth,
 )
 from .simulation import (
+    PD,
+    ContactEvent,
     ImpactRecord,
     Scene,
     SceneContact,
@@ -131,7 +133,9 @@ __all__ = [
     "scene_names",
     "simulate",
     "Trajectory",
+    "ContactEvent",
     "ImpactRecord",
+    "PD",
     "sweep",
     # models
     "robot_names",

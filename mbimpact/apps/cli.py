@@ -80,9 +80,8 @@ def _figures(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..simulation import load_scene, simulate
     from .report import summary, write_outputs
-    from ..simulation import load_scene
-    from ..simulation import simulate
 
     scene = load_scene(args.scene)
     tr = simulate(scene, progress=not args.no_progress)
@@ -90,12 +89,30 @@ def _run(args: argparse.Namespace) -> int:
     if args.out:
         for path in write_outputs(scene, tr, args.out):
             print(f"wrote {path}")
+    return 0 if tr.completed else 3
+
+
+def _scene(args: argparse.Namespace) -> int:
+    from ..simulation import load_scene, scene_names
+
+    if not args.scene:
+        print("shipped scenes: " + ", ".join(scene_names()))
+        return 0
+    scene = load_scene(args.scene)
+    print(f"{scene.name}: valid; {scene.mechanism.name} (nq = {scene.mechanism.nq}, nv = {scene.mechanism.nv}), "
+          f"{len(scene.contacts)} contact(s), {scene.duration:g} s")
+    for i, c in enumerate(scene.contacts):
+        print(f"  contact {i}: {c.frame} on a {c.surface.kind}{' (moving)' if c.surface.moving else ''}, "
+              f"{c.law!r}, persistent friction mu = {c.friction:g}")
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mbimpact`` console script."""
+    from .. import __version__
+
     parser = argparse.ArgumentParser(prog="mbimpact", description="Impacts of mechanisms on rough surfaces (Ivanov's constructive model).")
+    parser.add_argument("--version", action="version", version=f"mbimpact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="UR5 tool hitting a table: Newton vs rough law")
     demo.add_argument("--out", help="also write the table as CSV to this file")
@@ -128,9 +145,15 @@ def main(argv: list[str] | None = None) -> int:
     figs.set_defaults(func=_figures)
     run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
     run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")
-    run.add_argument("--out", help="directory for trajectory.csv, impacts.csv and plots.png")
+    run.add_argument("--out", help="directory for trajectory.csv, events.csv and plots.png")
     run.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     run.set_defaults(func=_run)
+    from ..simulation.schema import reference
+
+    scene = sub.add_parser("scene", help="check a scene file; --help prints the scene-file reference",
+                           formatter_class=argparse.RawDescriptionHelpFormatter, epilog=reference())
+    scene.add_argument("scene", nargs="?", help="path to a scene TOML, or a shipped name (none: list them)")
+    scene.set_defaults(func=_scene)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))

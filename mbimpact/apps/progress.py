@@ -19,14 +19,16 @@ class Progress:
     label : str
         Text before the bar.
     stream : file, optional
-        Where to draw (stderr by default); nothing is drawn when ``enabled`` is False.
+        Where to draw (stderr by default); nothing is drawn when ``enabled`` is False or the
+        stream is not a terminal (a log file or a pipe gets no carriage-return noise).
     """
 
     def __init__(self, total: int, label: str, stream: TextIO | None = None, enabled: bool = True) -> None:
         self.total = max(1, int(total))
         self.label = label
         self.stream = stream or sys.stderr
-        self.enabled = enabled
+        isatty = getattr(self.stream, "isatty", None)
+        self.enabled = enabled and bool(isatty is not None and isatty())
         self.done = 0
         self.start = time.perf_counter()
 

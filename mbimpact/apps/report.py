@@ -1,4 +1,4 @@
-"""``mbimpact run SCENE``: simulate a scene, summarise, write CSV and PNG files."""
+"""``mbimpact run SCENE``: simulate a scene, summarise it, write CSV and PNG files."""
 
 from __future__ import annotations
 
@@ -9,30 +9,52 @@ from pathlib import Path
 import numpy as np
 
 from ..simulation.scene import Scene
-from ..simulation.simulator import ImpactRecord, Trajectory
+from ..simulation.trajectory import ContactEvent, Trajectory
 
-__all__ = ["summary", "write_outputs"]
+__all__ = ["summary", "write_outputs", "state_unit"]
 
 
 def summary(scene: Scene, tr: Trajectory) -> str:
-    """A few lines: duration, impacts, energy, rest, what was computed."""
-    lines = [
-        f"scene {scene.name}: {scene.mechanism.name}, {len(scene.contacts)} contact(s), {scene.duration:g} s, status {tr.status}",
-        f"impacts: {len(tr.impacts)}; energy {tr.energy[0]:.6g} J → {tr.energy[-1]:.6g} J",
-    ]
+    """A few lines: status, events, energy, rest, limits, what was computed."""
+    impacts = [e for e in tr.events if e.kind == "impact"]
+    lines = [f"scene {scene.name}: {scene.mechanism.name}, {len(scene.contacts)} contact(s), {scene.duration:g} s",
+             tr.summary()]
     rest = tr.first_rest_time()
     if rest is not None:
-        lines.append(f"came to rest at t = {rest:.6g} s (rebound below rest_velocity = {scene.rest_velocity:g} m/s)")
-    if tr.impacts:
-        k = np.array([r.kappa for r in tr.impacts if r.kappa != 0.0] or [0.0])
-        mu = np.array([r.mu for r in tr.impacts])
+        lines.append(f"came to rest at t = {rest:.9g} s (Zeno tail included; rebound below rest_velocity = "
+                     f"{scene.rest_velocity:g} m/s or bounces closer than chatter_time = {scene.chatter_time:g} s)")
+    if impacts:
+        k = np.array([e.kappa for e in impacts])
+        mu = np.array([e.mu for e in impacts])
         lines.append(f"kappa in [{k.min():.4g}, {k.max():.4g}], mu in [{mu.min():.4g}, {mu.max():.4g}]")
     lines.append("work: " + ", ".join(f"{k}={v}" for k, v in sorted(tr.work.items())))
     return "\n".join(lines)
 
 
+def state_unit(scene: Scene, name: str) -> str:
+    """The unit of a recorded state ``q3``/``v0``: m or rad (m/s or rad/s), from the joint it belongs to
+    (a quaternion component has none)."""
+    model = scene.mechanism.model
+    kind, index = name[0], int(name[1:])
+    for joint in model.joints[1:]:
+        start, size = (joint.idx_q, joint.nq) if kind == "q" else (joint.idx_v, joint.nv)
+        if start <= index < start + size:
+            short = joint.shortname()
+            offset = index - start
+            if "Prismatic" in short or "Translation" in short:
+                linear = True
+            elif "FreeFlyer" in short or "Planar" in short:
+                linear = offset < (3 if "FreeFlyer" in short else 2)
+                if kind == "q" and not linear and "FreeFlyer" in short:
+                    return "1"  # quaternion
+            else:
+                linear = False
+            return ("m" if linear else "rad") + ("" if kind == "q" else "/s")
+    return ""
+
+
 def write_outputs(scene: Scene, tr: Trajectory, out: str | Path) -> list[Path]:
-    """trajectory.csv, impacts.csv and plots.png in ``out``."""
+    """trajectory.csv, events.csv and plots.png in ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     nq, nv, nc = scene.mechanism.nq, scene.mechanism.nv, len(scene.contacts)
@@ -40,36 +62,56 @@ def write_outputs(scene: Scene, tr: Trajectory, out: str | Path) -> list[Path]:
     with traj.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["t"] + [f"q{i}" for i in range(nq)] + [f"v{i}" for i in range(nv)] + ["energy"]
-                   + [f"gap{i}" for i in range(nc)] + [f"gap_rate{i}" for i in range(nc)])
-        for row in zip(tr.t, tr.q, tr.v, tr.energy, tr.gaps, tr.gap_rates):
-            w.writerow([row[0], *row[1], *row[2], row[3], *row[4], *row[5]])
-    log = out / "impacts.csv"
+                   + [f"gap{i}" for i in range(nc)] + [f"gap_rate{i}" for i in range(nc)]
+                   + [f"active{i}" for i in range(nc)] + [f"force{i}_{a}" for i in range(nc) for a in "xyz"])
+        for k in range(len(tr.t)):
+            w.writerow([tr.t[k], *tr.q[k], *tr.v[k], tr.energy[k], *tr.gaps[k], *tr.gap_rates[k],
+                        *(int(a) for a in tr.active[k]), *tr.forces[k].ravel()])
+    log = out / "events.csv"
     with log.open("w", newline="") as fh:
-        dw = csv.DictWriter(fh, fieldnames=[f.name for f in fields(ImpactRecord)])
+        dw = csv.DictWriter(fh, fieldnames=[f.name for f in fields(ContactEvent)])
         dw.writeheader()
-        for r in tr.impacts:
-            dw.writerow(asdict(r))
+        for e in tr.events:
+            dw.writerow(asdict(e))
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = 2 + (1 if scene.record else 0)
-    fig, axes = plt.subplots(1, panels, figsize=(6 * panels, 4))
-    axes[0].plot(tr.t, tr.energy)
-    axes[0].set(xlabel="t [s]", ylabel="energy [J]", title="mechanical energy")
+    groups: dict[str, list[str]] = {}
+    for name in scene.record:
+        groups.setdefault(state_unit(scene, name), []).append(name)
+    panels = 2 + nc + len(groups)
+    cols = min(panels, 3)
+    rows = -(-panels // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 3.4 * rows), squeeze=False)
+    flat = list(axes.ravel())
+    flat[0].plot(tr.t, tr.energy)
+    flat[0].set(xlabel="t [s]", ylabel="energy [J]", title="mechanical energy")
     for i in range(nc):
-        axes[1].plot(tr.t, tr.gap_rates[:, i], label=f"contact {i} ({scene.contacts[i].frame})")
-    axes[1].set(xlabel="t [s]", ylabel="normal velocity [m/s]", title="contact-normal velocity")
-    axes[1].legend(fontsize=8)
-    if scene.record:
-        for name in scene.record:
+        flat[1].plot(tr.t, tr.gap_rates[:, i], label=f"{i}: {scene.contacts[i].frame}")
+    flat[1].set(xlabel="t [s]", ylabel="[m/s]", title="relative normal velocity of the contacts")
+    flat[1].legend(fontsize=7)
+    for i in range(nc):
+        ax = flat[2 + i]
+        ax.plot(tr.t, tr.gaps[:, i])
+        ax.axhline(-tr.tolerance, color="C3", lw=0.6, ls=":")
+        for e in tr.events:
+            if e.contact == i and e.kind == "impact":
+                ax.axvline(e.t, color="0.8", lw=0.5)
+        ax.set(xlabel="t [s]", ylabel="gap [m]", title=f"contact {i} ({scene.contacts[i].frame}): gap")
+    for k, (unit, names) in enumerate(groups.items()):
+        ax = flat[2 + nc + k]
+        for name in names:
             series = tr.q[:, int(name[1:])] if name[0] == "q" else tr.v[:, int(name[1:])]
-            axes[2].plot(tr.t, series, label=name)
-        axes[2].set(xlabel="t [s]", title="recorded states")
-        axes[2].legend(fontsize=8)
+            ax.plot(tr.t, series, label=name)
+        ax.set(xlabel="t [s]", ylabel=f"[{unit}]" if unit else "", title="recorded states")
+        ax.legend(fontsize=7)
+    for ax in flat[panels:]:
+        ax.axis("off")
+    fig.suptitle(f"{scene.name}: {tr.status}")
     fig.tight_layout()
     png = out / "plots.png"
-    fig.savefig(png, dpi=100)
+    fig.savefig(png, dpi=90)
     plt.close(fig)
     return [traj, log, png]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -147,6 +147,25 @@ class RoughLaw(ImpactLaw):
     max_nodes = property(lambda self: self.spec.max_nodes, doc="Node count at which refinement stops.")
     samples = property(lambda self: self.spec.samples, doc="Monte Carlo sample count.")
     seed = property(lambda self: self.spec.seed, doc="Monte Carlo seed.")
+
+    def replace(self, **changes: Any) -> RoughLaw:
+        """A copy with some settings changed, e.g. ``law.replace(repeat=True)``.
+
+        Accepts the constructor's keywords (``roughness``, ``e``, ``flux``, ``method``, ``rtol``,
+        ``nodes``, ``max_nodes``, ``samples``, ``seed``, ``repeat``).
+        """
+        settings: dict[str, Any] = {
+            "e": self.e, "flux": self.flux, "method": self.method if self.method is not None else "auto",
+            "rtol": self.rtol, "nodes": self.nodes, "max_nodes": self.max_nodes, "samples": self.samples,
+            "seed": self.seed, "repeat": self.repeat,
+        }
+        unknown = set(changes) - set(settings) - {"roughness"}
+        if unknown:
+            raise ParameterError(f"RoughLaw.replace got unknown settings {sorted(unknown)}; valid: roughness, "
+                                 + ", ".join(settings))
+        roughness = changes.pop("roughness", self.roughness)
+        settings.update(changes)
+        return RoughLaw(roughness, **settings)
 
     def __repr__(self) -> str:
         extra = "" if self.flux == "physical" else f", flux={self.flux!r}"

@@ -150,9 +150,19 @@ class Mechanism:
         return cls.from_urdf(path, default_floating if floating is None else floating, name)
 
     @classmethod
-    def from_model(cls, name: str, floating: bool = False) -> Mechanism:
-        """One of mbimpact's own models under ``models/`` (``"point_mass_2d"``, ...)."""
-        return cls.from_urdf(model_path(name), floating, name)
+    def from_model(cls, name: str, floating: bool | None = None) -> Mechanism:
+        """One of mbimpact's own models under ``models/`` (``"point_mass_2d"``, ``"box"``, ...).
+
+        Parameters
+        ----------
+        floating : bool, optional
+            Add a free-flyer root. Default: only for the models that have no joint (the
+            solid ``box`` and ``sphere``), which would not move otherwise.
+        """
+        path = model_path(name)
+        if floating is None:
+            floating = pin.buildModelFromUrdf(str(path)).nv == 0
+        return cls.from_urdf(path, floating, name)
 
     # ------------------------------------------------------------ dimensions
     @property

@@ -1,14 +1,18 @@
 """Scenes and their simulation: only the effects a scene declares are computed.
 
-A scene (:class:`Scene`, or a TOML file read by :func:`load_scene`) declares a
-mechanism, its contacts and surfaces with their laws, the forces present and the
-duration; :func:`simulate` runs it. :mod:`.section4` is the paper's application: a
-point bouncing on a vibrating rough surface of revolution.
+A scene (:class:`Scene`, or a TOML file read by :func:`load_scene`, schema in
+:mod:`.schema`) declares a mechanism, its contacts and surfaces with their laws, the
+forces present and the duration; :func:`simulate` runs it with the guarantees described
+in :mod:`.simulator`. :mod:`.section4` is the paper's application: a point bouncing on a
+vibrating rough surface of revolution.
 """
 
-from .scene import Scene, SceneContact, SceneError, Surface, load_scene, scene_names, scene_path
-from .simulator import ImpactRecord, Trajectory, simulate
+from .scene import PD, Scene, SceneContact, scene_names, scene_path
+from .schema import load_scene, reference
+from .simulator import simulate
+from .surfaces import Surface
 from .sweep import sweep
+from .trajectory import STATUSES, ContactEvent, ImpactRecord, Trajectory
 
-__all__ = ["Scene", "SceneContact", "SceneError", "Surface", "load_scene", "scene_names", "scene_path", "simulate",
-           "Trajectory", "ImpactRecord", "sweep"]
+__all__ = ["Scene", "SceneContact", "PD", "Surface", "load_scene", "reference", "scene_names", "scene_path",
+           "simulate", "Trajectory", "ContactEvent", "ImpactRecord", "STATUSES", "sweep"]

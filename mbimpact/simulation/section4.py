@@ -16,15 +16,20 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..common.validation import as_count, as_scalar
-from ..errors import ParameterError, RoughnessError
+from ..errors import IntegrationError, RoughnessError
 from ..roughness import Cone, IsotropicSlopes, Roughness
 
-__all__ = ["Stability", "isotropic_moments", "stability", "Orbit", "periodic_orbit", "deviation_run", "deviation_grows", "stability_map"]
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["Stability", "isotropic_moments", "stability", "Orbit", "periodic_orbit", "orbit_scene", "deviation_run",
+           "growth_rate", "stability_map"]
 
 
 def isotropic_moments(roughness: Roughness) -> tuple[int, Callable[[Callable[[NDArray[np.float64]], NDArray[np.float64]]], float]]:
@@ -159,16 +164,14 @@ def periodic_orbit(kappa: float, m: int, frequency: float, g: float = 9.81) -> O
     return Orbit(A, math.acos(adot / (A * w)), V, gamma)
 
 
-def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, periods: int = 30,
-                  x0: float = 1e-3, frequency: float = 5.0) -> np.ndarray:
-    """Simulate the point on the vibrating paraboloid; horizontal offset at each impact.
-
-    ``inv_rho`` is ρ⁻¹ in units of ω²/g. Returns x at the successive impacts (m).
-    """
-    from ..mechanism.mechanism import Mechanism
+def orbit_scene(roughness: Roughness, e: float, m: int, inv_rho: float, periods: int, x0: float,
+                frequency: float = 5.0, max_wall_time: float = 120.0) -> Scene:
+    """The point on the vibrating rough surface of revolution, started on the vertical period-m orbit
+    with a horizontal offset ``x0`` (m); ``inv_rho`` is ρ⁻¹ in units of ω²/g (< 0: a dome, 0: a plane)."""
     from ..laws.rough import RoughLaw
-    from .scene import Scene, SceneContact, Surface
-    from .simulator import simulate
+    from ..mechanism.mechanism import Mechanism
+    from .scene import Scene, SceneContact
+    from .surfaces import Surface
 
     st = stability(roughness, e, m)
     g = 9.81
@@ -177,35 +180,89 @@ def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, period
     rho = (g / w**2) / inv_rho if inv_rho != 0 else math.inf  # ρ < 0: a dome
     surface = Surface("paraboloid" if math.isfinite(rho) else "plane", rho=rho, amplitude=orbit.amplitude,
                       frequency=frequency, phase=orbit.phase)
-    z0 = orbit.amplitude * math.sin(orbit.phase) + x0**2 / (2 * rho) + 1e-9
-    scene = Scene(Mechanism.from_model("point_mass_3d"), np.array([x0, 0.0, z0]), np.array([0.0, 0.0, orbit.takeoff_speed]),
-                  (SceneContact("mass", RoughLaw(roughness, e), surface),), duration=periods * m / frequency,
-                  rtol=1e-10, name="vibro")
-    tr = simulate(scene, samples=10)
-    return np.array([tr.q[np.argmin(np.abs(tr.t - r.t)), 0] for r in tr.impacts])
+    q0 = np.array([x0, 0.0, 0.0])
+    q0[2] = -surface.gap(q0, 0.0)  # on the surface, just after an impact of the orbit
+    return Scene(Mechanism.from_model("point_mass_3d"), q0, np.array([0.0, 0.0, orbit.takeoff_speed]),
+                 (SceneContact("mass", RoughLaw(roughness, e), surface),), duration=(periods + 0.5) * m / frequency,
+                 rtol=1e-11, name="section4", max_wall_time=max_wall_time)
 
 
-def deviation_grows(roughness: Roughness, e: float, m: int, inv_rho: float, periods: int = 16,
-                    x0: float = 1e-4) -> bool:
-    """Simulated verdict: does a small horizontal offset grow (×10 within the run)?"""
-    x = deviation_run(roughness, e, m, inv_rho, periods=periods, x0=x0)
-    return bool(np.abs(x).max() > 10 * x0)
+def deviation_run(roughness: Roughness, e: float, m: int, inv_rho: float, periods: int = 30,
+                  x0: float = 1e-3, frequency: float = 5.0) -> NDArray[np.float64]:
+    """Simulate the point on the vibrating surface of revolution (:func:`orbit_scene`): the
+    horizontal offset x at each of the ``periods`` impacts (m).
 
-
-def stability_map(alphas: np.ndarray, e: float = 0.8, m: int = 1, factors: tuple[float, ...] = (0.5, 2.0),
-                  executor: object | None = None) -> dict[str, np.ndarray]:
-    """B(α) for a cone of facets, and simulated points at ρ⁻¹ = factor · B(α).
-
-    Returns the analytic boundary on a fine α grid and, for every simulated point,
-    α, ρ⁻¹ and whether the deviation grew. Simulations run through
-    :func:`mbimpact.sweep.sweep` (``executor``: any concurrent.futures Executor).
+    Raises
+    ------
+    IntegrationError
+        The simulation did not complete (its status and message are given).
     """
-    from ..roughness import Cone
+    from .simulator import simulate
+
+    tr = simulate(orbit_scene(roughness, e, m, inv_rho, periods, x0, frequency), samples=10)
+    if not tr.completed:
+        raise IntegrationError(f"section 4 run at rho^-1 = {inv_rho:g} ended with {tr.status}: {tr.message}")
+    times = tr.impact_times()[:periods]
+    return np.interp(times, tr.t, tr.q[:, 0])
+
+
+def growth_rate(x: NDArray[np.float64], linear: float = 1000.0) -> float:
+    """ln of the largest |eigenvalue| of the 2×2 map x_{k+1} = tr x_k − det x_{k−1} fitted to a
+    sequence of offsets (per period of the motion): < 0 when the deviation decays. Only the
+    offsets up to ``linear`` times the first are used (a growing deviation leaves the linear regime)."""
+    x = np.asarray(x, dtype=float)
+    small = np.flatnonzero(np.abs(x) > linear * abs(x[0]))
+    x = x[: max(5, int(small[0])) if small.size else len(x)]
+    x = x / float(np.abs(x).max())
+    M = np.column_stack([x[1:-1], -x[:-2]])
+    (tr, det), *_ = np.linalg.lstsq(M, x[2:], rcond=None)
+    return float(np.log(np.abs(np.roots([1.0, -tr, det])).max()))
+
+
+def _map_point(roughness: Roughness, e: float, m: int, ratio: float, periods: int, x0: float) -> tuple[float, str]:
+    """One point of the stability map: the simulated growth rate at ρ⁻¹ = ratio · B, or NaN and why not."""
+    from .simulator import simulate
+
+    st = stability(roughness, e, m)
+    tr = simulate(orbit_scene(roughness, e, m, ratio * st.B, periods, x0, max_wall_time=60.0), samples=10)
+    if not tr.completed:
+        return math.nan, f"{tr.status}: {tr.message}"
+    x = np.interp(tr.impact_times()[:periods], tr.t, tr.q[:, 0])
+    return growth_rate(x), "completed"
+
+
+def stability_map(cases: list[tuple[Roughness, float, int]], ratios: NDArray[np.float64] | None = None,
+                  periods: int = 24, x0: float = 1e-7, executor: object | None = None) -> list[dict[str, Any]]:
+    """The stability boundary (4.3) against full simulations.
+
+    For each case (roughness, e, m) and each ρ⁻¹ = ratio · B (ratios from −1.5 to 1.5 by
+    default), the growth rate per period of a small horizontal offset, from a simulation of
+    ``periods`` periods fitted by the 2×2 map (:func:`growth_rate`), beside the linear theory's
+    (:meth:`Stability.growth`). Runs go through :func:`mbimpact.sweep` (``executor``: any
+    concurrent.futures Executor); each is bounded in wall time, and one that does not complete
+    is reported with its status instead of a rate.
+
+    Returns
+    -------
+    list of dict
+        Per case: ``label``, ``B``, ``ratio`` (n,), ``growth`` (n,) simulated (NaN where the run
+        did not complete), ``theory`` (n,), ``status`` (n,) and ``boundary``: the simulated
+        ρ⁻¹/B where the growth changes sign (interpolated; ≈ 1 when (4.3) holds, also ≈ 0).
+    """
     from .sweep import sweep
 
-    fine = np.linspace(float(np.min(alphas)), float(np.max(alphas)), 200)
-    boundary = np.array([stability(Cone(a), e, m).B for a in fine])
-    points = [(float(a), f * stability(Cone(a), e, m).B) for a in alphas for f in factors]
-    grew = sweep(deviation_grows, [(Cone(a), e, m, r) for a, r in points], executor)  # type: ignore[arg-type]
-    return {"alpha_fine": fine, "B": boundary, "alpha": np.array([p[0] for p in points]),
-            "inv_rho": np.array([p[1] for p in points]), "grew": np.array(grew)}
+    ratios = np.linspace(-1.5, 1.5, 13) if ratios is None else np.asarray(ratios, dtype=float)
+    jobs = [(rough, e, m, float(r), periods, x0) for rough, e, m in cases for r in ratios]
+    results = sweep(_map_point, jobs, executor)  # type: ignore[arg-type]
+    out = []
+    for k, (rough, e, m) in enumerate(cases):
+        st = stability(rough, e, m)
+        part = results[k * len(ratios):(k + 1) * len(ratios)]
+        growth = np.array([g for g, _ in part])
+        theory = np.array([st.growth(r * st.B, m) for r in ratios])
+        signs = np.flatnonzero(np.diff(np.sign(growth)) != 0)
+        crossings = [ratios[i] - growth[i] * (ratios[i + 1] - ratios[i]) / (growth[i + 1] - growth[i]) for i in signs
+                     if np.isfinite(growth[i]) and np.isfinite(growth[i + 1])]
+        out.append({"label": f"{rough!r}, e={e:g}, m={m}", "B": st.B, "ratio": ratios, "growth": growth,
+                    "theory": theory, "status": [s for _, s in part], "boundary": np.array(crossings)})
+    return out

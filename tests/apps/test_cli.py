@@ -45,4 +45,4 @@ def test_python_m_mbimpact_demo():
 def test_models_are_shipped_with_the_package():
     assert {"point_mass_2d", "point_mass_3d", "planar_rod", "double_pendulum"} <= set(mbi.model_names())
     for name in mbi.model_names():
-        assert mbi.Mechanism.from_model(name).nv >= 2
+        assert mbi.Mechanism.from_model(name).nv >= 2  # the solids float by default
