@@ -212,26 +212,15 @@ def test_sticking_at_a_nearly_singular_delassus_matrix_ends_compression():
     assert res.energy_loss >= 0.0 and res.mu <= 1.0 + 1e-9
 
 
-def test_a_3d_slip_that_stops_switches_to_sticking_without_chattering(monkeypatch):
+def test_a_3d_slip_that_stops_switches_to_sticking_without_chattering():
     """Slip stops during restitution (μ = 1.5 allows sticking): the stop is detected above the
     integrator's resolution and the residual slip removed; the integrator used to chatter about
-    u_t = 0 for millions of steps (tens of seconds)."""
-    import scipy.integrate
-
-    evaluations = []
-    solve = scipy.integrate.solve_ivp
-
-    def counting(*args, **kwargs):
-        sol = solve(*args, **kwargs)
-        evaluations.append(sol.nfev)
-        return sol
-
-    monkeypatch.setattr(scipy.integrate, "solve_ivp", counting)
+    u_t = 0 for millions of steps (tens of seconds). ``nodes`` counts the integration steps."""
     W = np.array([[0.50314836, 1.15271262, -0.27604205], [1.15271262, 5.10958421, -2.40727164],
                   [-0.27604205, -2.40727164, 1.55898575]])
     L = np.linalg.cholesky(np.linalg.inv(W))
     res = mbi.CoulombLaw(1.0, 1.5, "energetic").apply(L @ L.T, np.eye(3), [0.29384942, 0.82099915, -0.56966659],
                                                        [0, 0, 1])
-    assert sum(evaluations) < 20_000
+    assert res.nodes < 200
     assert np.linalg.norm(res.u_plus[:2]) < 1e-9  # it sticks to the end
     assert res.energy_loss >= 0.0 and res.mu <= 1.5 * (1 + 1e-7)
