@@ -1,0 +1,246 @@
+"""``mbimpact fit DATA.csv``: fit impact laws to a data table and compare them side by side.
+
+Every law family asked for (:data:`mbimpact.fit.FAMILIES`; by default Newton's, Coulomb's,
+and the rough law with Newton, Coulomb and compliant facets, plus plain compliant
+facets) is fitted to the table by :func:`mbimpact.calibrate`; the command prints each law's
+parameters ± standard errors and its RMS per column, and with ``--out DIR`` writes
+
+* ``<table>_fit.csv`` — one row per law and parameter (value, error) and per column (RMS);
+* ``<table>_predictions.csv`` — every law's predictions on a fine grid of incidences;
+* ``<table>_fit.png`` — the data against the fitted laws, one panel per column, plus the
+  contact point's tangential restitution (where only compliance produces a reversal).
+
+Wiring (in :mod:`mbimpact.apps.cli`): ``add_parser(subparsers)``; the parser's default
+``func`` is :func:`run`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["DEFAULT_LAWS", "Skipped", "fit_laws", "format_report", "best_per_column", "write_csv",
+           "write_predictions", "plot", "add_parser", "run"]
+
+#: The families compared when ``--law`` is not given.
+DEFAULT_LAWS = ("newton", "coulomb", "rough-newton", "rough-coulomb", "compliant", "rough-compliant")
+
+
+@dataclass(frozen=True)
+class Skipped:
+    """A law family that could not be fitted to the table, and why."""
+
+    label: str
+    reason: str
+
+
+def fit_laws(table: Any, laws: tuple[str, ...], body: Any = None, speed: float | None = None,
+             starts: int | None = None, seed: int = 0, progress: bool = False) -> list[Any]:
+    """:func:`mbimpact.calibrate` of every family in ``laws``: a list of :class:`~mbimpact.fit.Fit` or :class:`Skipped`."""
+    from ..fit import FitError, calibrate
+
+    out: list[Any] = []
+    for name in laws:
+        if progress:
+            print(f"fitting {name} ...", flush=True)
+        try:
+            out.append(calibrate(table, name, body, speed=speed, starts=starts, seed=seed))
+        except FitError as exc:
+            if "speed" in str(exc):  # a speed-dependent law on a table without speeds: say so, go on
+                out.append(Skipped(name, str(exc)))
+            else:
+                raise
+    return out
+
+
+def format_report(table: Any, fits: list[Any]) -> str:
+    """Each law's parameters ± errors and RMS per column, then a side-by-side RMS table."""
+    lines = [f"{table.name}: {len(table)} rows, columns {', '.join(table.quantities)}"]
+    if table.source():
+        lines.append(f"source: {table.source()}")
+    lines.append("")
+    done = [f for f in fits if not isinstance(f, Skipped)]
+    for f in fits:
+        lines.append(f"{f.label}: skipped — {f.reason}" if isinstance(f, Skipped) else f.summary())
+        lines.append("")
+    if done:
+        cols = done[0].quantities
+        head = f"{'law':22s}" + "".join(f"{'rms ' + q:>18s}" for q in cols) + f"{'rms (all)':>12s}"
+        lines += [head, "-" * len(head)]
+        for f in done:
+            lines.append(f"{f.label:22s}" + "".join(f"{f.quantity_rms[q]:18.4g}" for q in cols) + f"{f.rms:12.4g}")
+        lines += ["", best_per_column(fits)]
+    return "\n".join(lines)
+
+
+def write_csv(fits: list[Any], path: Path) -> Path:
+    """One row per law and parameter (kind ``param``: value, stderr) and per column (kind ``rms``)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["law", "kind", "name", "value", "stderr", "note"])
+        for f in fits:
+            if isinstance(f, Skipped):
+                w.writerow([f.label, "skipped", "", "", "", f.reason])
+                continue
+            for name, value in f.params.items():
+                free = name in f.free
+                w.writerow([f.label, "param", name, f"{value:.8g}", f"{f.stderr[name]:.3g}" if free else "",
+                            "on its bound" if name in f.at_bound else ("" if free else "fixed")])
+            for q, r in f.quantity_rms.items():
+                w.writerow([f.label, "rms", q, f"{r:.6g}", "", ""])
+            w.writerow([f.label, "rms", "all (dimensionless)", f"{f.rms:.6g}", "", ""])
+    return path
+
+
+def _grid(table: Any) -> np.ndarray:
+    top = min(88.0, float(np.max(table.theta_deg)) + 3.0)
+    return np.linspace(0.5, max(top, 10.0), 120)
+
+
+def write_predictions(table: Any, fits: list[Any], path: Path) -> Path:
+    """Every fitted law's predictions on a grid of incidences (columns ``<law>:<quantity>``)."""
+    grid = _grid(table)
+    done = [f for f in fits if not isinstance(f, Skipped)]
+    preds = [f.predict(grid) for f in done]
+    names = [(f.label, q) for f, p in zip(done, preds) for q in p]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["theta_deg"] + [f"{label}:{q}" for label, q in names])
+        for i, theta in enumerate(grid):
+            row = [f"{theta:.6g}"]
+            for p in preds:
+                row += [f"{p[q][i]:.8g}" for q in p]
+            w.writerow(row)
+    return path
+
+
+def plot(table: Any, fits: list[Any], path: Path) -> Path:
+    """Data against the fitted laws: one panel per column, plus the contact point's tangential restitution."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..fit import QUANTITIES
+
+    done = [f for f in fits if not isinstance(f, Skipped)]
+    panels = list(table.quantities) + (["et_cp"] if "et_cp" not in table.quantities else [])
+    grid = _grid(table)
+    preds = [f.predict(grid) for f in done]
+    ncol = min(3, len(panels))
+    nrow = math.ceil(len(panels) / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.9 * nrow), squeeze=False)
+    styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 1))]
+    for ax, q in zip(axes.flat, panels):
+        for k, (f, p) in enumerate(zip(done, preds)):
+            if q in p:
+                ax.plot(grid, p[q], linestyle=styles[k % len(styles)], lw=1.6,
+                        label=f"{f.label} (rms {f.quantity_rms[q]:.3g})" if q in f.quantity_rms else f.label)
+        if q in table.quantities:
+            y = table.values(q)
+            ok = ~np.isnan(y)
+            ax.plot(table.theta_deg[ok], y[ok], "ko", ms=5, label="data", zorder=5)
+            # the data set the scale: predictions may leave it (κ of a rough law near grazing), up to twice its span
+            lo, hi = float(np.min(y[ok])), float(np.max(y[ok]))
+            span = max(hi - lo, 0.05 * max(abs(lo), abs(hi)), 1e-3)
+            inside = (grid >= table.theta_deg[ok].min()) & (grid <= table.theta_deg[ok].max())
+            shown = [p[q][inside] for p in preds if q in p and inside.any()]
+            plo = min([lo] + [float(np.nanmin(v)) for v in shown if np.isfinite(v).any()])
+            phi = max([hi] + [float(np.nanmax(v)) for v in shown if np.isfinite(v).any()])
+            ax.set_ylim(max(plo, lo - 2 * span) - 0.08 * span, min(phi, hi + 2 * span) + 0.08 * span)
+        unit = QUANTITIES[q].unit
+        ax.set_title(f"{q}: {QUANTITIES[q].description}" + ("" if q in table.quantities else " (no data)"),
+                     fontsize=9)
+        ax.set_xlabel("incidence from the normal θ (deg)")
+        ax.set_ylabel(f"{q}" + (f" ({unit})" if unit else ""))
+        if q in ("et", "et_cp"):
+            ax.axhline(5 / 7, color="0.6", lw=0.8, ls=":")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(panels):]:
+        ax.set_visible(False)
+    fig.suptitle(f"{table.name}: impact laws fitted by least squares", fontsize=11)
+    fig.text(0.5, 0.005, best_per_column(fits), ha="center", va="bottom", fontsize=8)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def best_per_column(fits: list[Any]) -> str:
+    """The line that names the best law per column, e.g. ``kappa: rough-coulomb (rms 0.091); et: compliant ...``."""
+    done = [f for f in fits if not isinstance(f, Skipped)]
+    if not done:
+        return ""
+    parts = []
+    for q in done[0].quantities:
+        best = min(done, key=lambda f: f.quantity_rms[q])
+        parts.append(f"{q}: {best.label} (rms {best.quantity_rms[q]:.3g})")
+    overall = min(done, key=lambda f: f.rms)
+    return "best fit per column — " + "; ".join(parts) + f"; all columns: {overall.label}"
+
+
+def _laws(text: list[str] | None) -> tuple[str, ...]:
+    from ..fit import FAMILIES
+
+    if not text:
+        return DEFAULT_LAWS
+    names = tuple(n.strip() for item in text for n in item.split(",") if n.strip())
+    bad = [n for n in names if n not in FAMILIES]
+    if bad:
+        raise ParameterError(f"unknown law(s) {bad}; valid: {', '.join(FAMILIES)}")
+    return names
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``mbimpact fit`` on the CLI's subparsers; its ``func`` is :func:`run`."""
+    from ..fit import FAMILIES
+
+    p = subparsers.add_parser("fit", help="fit impact laws to a data table (CSV) and compare them",
+                              description=__doc__.split("\n\n")[0] if __doc__ else None)
+    p.add_argument("data", help="table CSV (see mbimpact.fit.table), or a shipped name: kharaz2001, "
+                                "grant_tabakoff1975")
+    p.add_argument("--law", action="append",
+                   help="law families to fit, comma-separated or repeated (default: "
+                        f"{', '.join(DEFAULT_LAWS)}; all: {', '.join(FAMILIES)})")
+    p.add_argument("--body", help="'sphere radius=R mass=m' or 'point' (default: the table's body line)")
+    p.add_argument("--speed", type=float, help="impact speed (m/s) when the table has no speed column")
+    p.add_argument("--starts", type=int, help="starting points per fit (default: 1 convex, 4 otherwise)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument("--out", help="directory for <table>_fit.csv, <table>_predictions.csv and <table>_fit.png")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Fit, print, and write the outputs of ``mbimpact fit``; 0 on success."""
+    from ..fit import ImpactTable
+
+    table = ImpactTable.from_csv(args.data)
+    body = None
+    if args.body:
+        body = ImpactTable(table.theta_deg, table.columns, table.speed, {"body": args.body}, table.name).body()
+    if args.speed is not None and not (math.isfinite(args.speed) and args.speed > 0):
+        raise ParameterError(f"--speed must be a positive number of m/s, got {args.speed}")
+    if args.starts is not None and args.starts < 1:
+        raise ParameterError(f"--starts must be ≥ 1, got {args.starts}")
+    fits = fit_laws(table, _laws(args.law), body, args.speed, args.starts, args.seed)
+    print(format_report(table, fits))
+    if args.out:
+        out = Path(args.out)
+        print()
+        print(f"wrote {write_csv(fits, out / f'{table.name}_fit.csv')}")
+        print(f"wrote {write_predictions(table, fits, out / f'{table.name}_predictions.csv')}")
+        print(f"wrote {plot(table, fits, out / f'{table.name}_fit.png')}")
+    return 0
