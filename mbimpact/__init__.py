@@ -3,14 +3,17 @@
 The pipeline, one subpackage per stage:
 
 1. :mod:`mbimpact.mechanism` — Pinocchio: A(q), the contact Jacobian J(q), :func:`impact`;
+   :mod:`mbimpact.geometry` — contacts from the mechanism's own collision geometry (coal);
 2. :mod:`mbimpact.metric` — the A-metric at the contact: Delassus matrix W, local frame;
 3. :mod:`mbimpact.roughness` — facets and their measure (G, P);
-4. :mod:`mbimpact.averaging` — the rules that compute the two integrals of (2.8);
+4. :mod:`mbimpact.facets` — the impact on one facet (Newton's (2.6), or Coulomb, compliant, ...);
+   :mod:`mbimpact.averaging` — the rules that compute the two integrals of (2.8);
 5. :mod:`mbimpact.laws` — Newton's law, the rough law (2.8), Coulomb's law;
 6. :mod:`mbimpact.results` — I = A Δv = Jᵀ P by (1.1), results that check themselves.
 
 Around it: :mod:`mbimpact.compliant` (the model resolved in time),
-:mod:`mbimpact.simulation` (scenes and their simulation, section 4) and
+:mod:`mbimpact.simulation` (scenes and their simulation, section 4),
+:mod:`mbimpact.fit` (calibration of laws against measured impacts) and
 :mod:`mbimpact.apps` (the ``mbimpact`` command, loaded on use). The theory the code
 implements is in :mod:`mbimpact.theory`.
 """
@@ -25,7 +28,10 @@ from .averaging import Averaging
 from .compliant import Resolved, RoughResolved, SimultaneousReport, compare_simultaneous, resolve, resolve_rough
 from .errors import (
     AccuracyWarning,
+    CollisionNotFoundError,
+    FitError,
     FrameNotFoundError,
+    GeometryError,
     ImpactError,
     ImpactWarning,
     IntegrationError,
@@ -40,6 +46,26 @@ from .errors import (
     RoughnessError,
     SceneError,
     ShapeError,
+    TableError,
+)
+from .facets import FACETS, CompliantFacet, CoulombFacet, FacetLaw, HuntCrossleyFacet, NewtonFacet, facet_law
+from .fit import Ball, Fit, ImpactTable, PointMass, calibrate
+from .geometry import (
+    Box,
+    Capsule,
+    CollisionModel,
+    Cylinder,
+    Gap,
+    GapArrays,
+    GapModel,
+    GeometryContact,
+    HalfSpace,
+    Mesh,
+    Shape,
+    Sphere,
+    contact_points,
+    gap_model,
+    gaps,
 )
 from .laws import CoulombLaw, ImpactLaw, NewtonLaw, RoughLaw, e_from_k, impact_duration, k_from_e
 from .mechanism import (
@@ -73,6 +99,7 @@ from .simulation import (
     ContactEvent,
     ImpactRecord,
     Scene,
+    SceneCollision,
     SceneContact,
     Surface,
     Trajectory,
@@ -93,6 +120,22 @@ __all__ = [
     "impact_batch",
     "ContactMetric",
     "local_basis",
+    # collision geometry
+    "GeometryContact",
+    "CollisionModel",
+    "Shape",
+    "HalfSpace",
+    "Box",
+    "Sphere",
+    "Capsule",
+    "Cylinder",
+    "Mesh",
+    "Gap",
+    "GapArrays",
+    "GapModel",
+    "gaps",
+    "gap_model",
+    "contact_points",
     # roughness measures
     "Roughness",
     "FiniteRoughness",
@@ -104,6 +147,14 @@ __all__ = [
     "GaussianSlopes",
     "Profile",
     "HeightMap",
+    # facet laws (what is averaged)
+    "FacetLaw",
+    "NewtonFacet",
+    "CoulombFacet",
+    "CompliantFacet",
+    "HuntCrossleyFacet",
+    "FACETS",
+    "facet_law",
     # averaging
     "Averaging",
     "AVERAGING_METHODS",
@@ -125,9 +176,16 @@ __all__ = [
     "RoughResolved",
     "compare_simultaneous",
     "SimultaneousReport",
+    # calibration
+    "ImpactTable",
+    "Ball",
+    "PointMass",
+    "calibrate",
+    "Fit",
     # scenes
     "Scene",
     "SceneContact",
+    "SceneCollision",
     "Surface",
     "load_scene",
     "scene_names",
@@ -153,6 +211,10 @@ __all__ = [
     "NameNotFoundError",
     "RobotNotFoundError",
     "FrameNotFoundError",
+    "CollisionNotFoundError",
+    "GeometryError",
+    "TableError",
+    "FitError",
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",

@@ -25,10 +25,14 @@ __all__ = [
     "NameNotFoundError",
     "RobotNotFoundError",
     "FrameNotFoundError",
+    "CollisionNotFoundError",
+    "GeometryError",
     "NoImpactError",
     "NoFacingFacetError",
     "IntegrationError",
     "SceneError",
+    "TableError",
+    "FitError",
     "ImpactWarning",
     "AccuracyWarning",
     "NoSeparationWarning",
@@ -72,6 +76,15 @@ class FrameNotFoundError(NameNotFoundError):
     """The mechanism has no frame of that name."""
 
 
+class CollisionNotFoundError(NameNotFoundError):
+    """The mechanism (or a gap model) has no collision object of that name; the message lists close matches."""
+
+
+class GeometryError(ImpactError):
+    """Collision geometry is missing or unusable: a mechanism without ``<collision>`` elements, a mesh
+    file that cannot be found or read, a convex hull that cannot be built, a duplicate name."""
+
+
 class NoImpactError(ImpactError):
     """The velocity does not approach the base surface: (N0, v) >= 0."""
 
@@ -86,6 +99,14 @@ class IntegrationError(ImpactError):
 
 class SceneError(ImpactError):
     """A scene file or object is invalid; the message names the key (and line)."""
+
+
+class TableError(ImpactError):
+    """A data table is ill-formed: a missing or unknown column, a bad value, an unreadable file."""
+
+
+class FitError(ImpactError):
+    """A fit cannot be set up: a parameter the law does not have, nothing to fit, too few data."""
 
 
 class ImpactWarning(ImpactError, UserWarning):

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
+from collections.abc import Iterator
 
 import numpy as np
 from hypothesis import strategies as st
@@ -79,3 +81,53 @@ def impulses(law: mbi.ImpactLaw, W: np.ndarray, U: np.ndarray) -> tuple[np.ndarr
     """A law's core, :meth:`~mbimpact.ImpactLaw.contact_impulses`, as (P, error estimates, nodes)."""
     out = law.contact_impulses(W, U)
     return out.P, out.error, out.nodes
+
+
+class CallTimeout(AssertionError):
+    """A call under :func:`time_limit` ran too long: the test fails instead of hanging."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float) -> Iterator[None]:
+    """Fail the test (raise :class:`CallTimeout`) if the block runs longer than ``seconds`` of wall time.
+
+    Uses SIGALRM, so it works in the main thread (where pytest runs tests); elsewhere it only
+    checks afterwards.
+    """
+    import signal
+    import threading
+    import time
+
+    if threading.current_thread() is not threading.main_thread():
+        start = time.monotonic()
+        yield
+        if time.monotonic() - start > seconds:
+            raise CallTimeout(f"the call took more than {seconds:g} s")
+        return
+
+    def expire(signum: int, frame: object) -> None:
+        raise CallTimeout(f"the call took more than {seconds:g} s (a hang)")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def energy_bound(result: mbi.ImpactResult | mbi.BatchResult, W_cond: float) -> np.ndarray:
+    """The kinetic energy a result may gain by rounding and quadrature alone.
+
+    The energy change is computed as −Pᵀ(u₋ + u₊)/2; an impulse P off by a relative δ changes it by
+    at most δ |P| (|u₋| + |u₊|)/2. δ is the law's own error estimate plus rounding, ε amplified by
+    the conditioning of the contact (cond W ≈ |W||W⁻¹|, through the solves that give P and u₊),
+    with a safety factor 100: gain ≤ (err + 100 ε cond W) |P| (|u₋| + |u₊|) / 2.
+    """
+    P = np.atleast_2d(result.P)
+    um = np.atleast_2d(result.u_minus if isinstance(result, mbi.ImpactResult) else result.U_minus)
+    up = np.atleast_2d(result.u_plus if isinstance(result, mbi.ImpactResult) else result.U_plus)
+    err = np.atleast_1d(result.error_estimate)
+    delta = err + 100 * np.finfo(float).eps * max(W_cond, 1.0)
+    return delta * np.linalg.norm(P, axis=1) * (np.linalg.norm(um, axis=1) + np.linalg.norm(up, axis=1)) / 2

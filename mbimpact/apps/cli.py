@@ -1,14 +1,68 @@
-"""Command line: ``mbimpact demo|bench|compare|figures|run``."""
+"""Command line: ``mbimpact demo|compare|figures|bench|run|scene|fit``.
+
+Every mistake on the command line or in its inputs ends with a one-line message on stderr
+and exit status 2 — never a traceback; a simulation that does not complete exits with 3.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 from pathlib import Path
 
 from ..errors import ImpactError
 
 __all__ = ["main"]
+
+
+def _finite(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(x):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return x
+
+
+def _positive_int(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"must be ≥ 1, got {n}")
+    return n
+
+
+def _vector(text: str) -> list[float]:
+    """Comma-separated finite numbers, e.g. ``0,-1.2,1.6``."""
+    return [_finite(x.strip()) for x in text.split(",")]
+
+
+def _out_dir(text: str) -> Path:
+    """A directory that exists (or can be made) and can be written to."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} exists and is not a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"cannot create the directory {text!r}: {exc.strerror}") from None
+    if not os.access(path, os.W_OK):
+        raise argparse.ArgumentTypeError(f"cannot write to the directory {text!r}")
+    return path
+
+
+def _out_file(text: str) -> Path:
+    """A file whose directory can be written to (and that is not a directory)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
+    _out_dir(str(path.parent or "."))
+    return path
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -24,9 +78,9 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
-    from .bench import format_report, plot, run_bench, write_csv
+    from .bench import PARTS, format_report, plot, run_bench, write_csv
 
-    rows = run_bench(quick=args.quick, show_progress=not args.no_progress)
+    rows = run_bench(quick=args.quick, show_progress=not args.no_progress, parts=tuple(args.parts or PARTS))
     print(format_report(rows))
     if args.out:
         out = Path(args.out)
@@ -48,8 +102,8 @@ def _compare(args: argparse.Namespace) -> int:
     from ..roughness import Cone, Sawtooth
 
     mech = Mechanism.from_urdf(args.urdf, args.floating) if args.urdf else Mechanism.from_robot(args.robot)
-    if args.q:
-        q = np.array([float(x) for x in args.q.split(",")])
+    if args.q is not None:
+        q = mech.check_configuration(np.array(args.q))
     else:
         q = UR5_POSTURE if (args.robot == "ur5" and not args.urdf) else mech.neutral()
     rough = Sawtooth(args.alpha) if args.planar else Cone(args.alpha)
@@ -93,7 +147,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _scene(args: argparse.Namespace) -> int:
-    from ..simulation import load_scene, scene_names
+    from ..simulation import SceneContact, load_scene, scene_names
 
     if not args.scene:
         print("shipped scenes: " + ", ".join(scene_names()))
@@ -102,26 +156,32 @@ def _scene(args: argparse.Namespace) -> int:
     print(f"{scene.name}: valid; {scene.mechanism.name} (nq = {scene.mechanism.nq}, nv = {scene.mechanism.nv}), "
           f"{len(scene.contacts)} contact(s), {scene.duration:g} s")
     for i, c in enumerate(scene.contacts):
-        print(f"  contact {i}: {c.frame} on a {c.surface.kind}{' (moving)' if c.surface.moving else ''}, "
-              f"{c.law!r}, persistent friction mu = {c.friction:g}")
+        where = (f"{c.frame} on a {c.surface.kind}{' (moving)' if c.surface.moving else ''}"
+                 if isinstance(c, SceneContact) else f"collision pair {c.label}")
+        print(f"  contact {i}: {where}, {c.law!r}, persistent friction mu = {c.friction:g}")
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mbimpact`` console script."""
     from .. import __version__
+    from ..simulation.schema import reference
+    from .fit import add_parser as add_fit_parser
 
     parser = argparse.ArgumentParser(prog="mbimpact", description="Impacts of mechanisms on rough surfaces (Ivanov's constructive model).")
     parser.add_argument("--version", action="version", version=f"mbimpact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     demo = sub.add_parser("demo", help="UR5 tool hitting a table: Newton vs rough law")
-    demo.add_argument("--out", help="also write the table as CSV to this file")
-    demo.add_argument("--e", type=float, default=0.8, help="facet restitution (default 0.8)")
+    demo.add_argument("--out", type=_out_file, help="also write the table as CSV to this file")
+    demo.add_argument("--e", type=_finite, default=0.8, help="facet restitution (default 0.8)")
     demo.set_defaults(func=_demo)
-    bench = sub.add_parser("bench", help="accuracy vs time, overhead against Pinocchio, batch throughput")
-    bench.add_argument("--quick", action="store_true", help="small grids (< 20 s)")
-    bench.add_argument("--out", help="directory for bench.csv and bench.png")
+    bench = sub.add_parser("bench", help="accuracy vs time, overhead against Pinocchio, batch throughput, scenes")
+    bench.add_argument("--quick", action="store_true", help="small grids (< 30 s)")
+    bench.add_argument("--out", type=_out_dir, help="directory for bench.csv and bench.png")
     bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
+    bench.add_argument("--part", dest="parts", action="append",
+                       choices=["accuracy", "compliant", "overhead", "batch", "geometry", "scenes", "mujoco"],
+                       help="run only this part (repeatable; default all)")
     bench.set_defaults(func=_bench)
     cmp = sub.add_parser("compare", help="Newton vs rough vs Coulomb law over the incidence angle")
     src = cmp.add_mutually_exclusive_group()
@@ -129,34 +189,36 @@ def main(argv: list[str] | None = None) -> int:
     src.add_argument("--urdf", help="URDF file instead of a robot name")
     cmp.add_argument("--floating", action="store_true", help="free-flyer root for --urdf")
     cmp.add_argument("--frame", default="tool0", help="contact frame (default tool0)")
-    cmp.add_argument("--q", help="posture, comma-separated (default: neutral; UR5: over the table)")
-    cmp.add_argument("--speed", type=float, default=1.0, help="approach speed of the contact point [m/s]")
-    cmp.add_argument("--alpha", type=float, default=0.3, help="roughness tilt α of the rough law")
+    cmp.add_argument("--q", type=_vector, help="posture, comma-separated (default: neutral; UR5: over the table)")
+    cmp.add_argument("--speed", type=_finite, default=1.0, help="approach speed of the contact point [m/s]")
+    cmp.add_argument("--alpha", type=_finite, default=0.3, help="roughness tilt α of the rough law")
     cmp.add_argument("--planar", action="store_true", help="planar sawtooth instead of a spatial cone")
-    cmp.add_argument("--e", type=float, default=0.8, help="restitution of all laws")
-    cmp.add_argument("--mu", type=float, default=0.3, help="Coulomb friction coefficient")
+    cmp.add_argument("--e", type=_finite, default=0.8, help="restitution of all laws")
+    cmp.add_argument("--mu", type=_finite, default=0.3, help="Coulomb friction coefficient")
     cmp.add_argument("--restitution", default="energetic", choices=["newton", "poisson", "energetic"])
-    cmp.add_argument("--max-beta", type=float, default=85.0, help="largest incidence angle [deg]")
-    cmp.add_argument("--steps", type=int, default=35, help="number of incidence angles")
-    cmp.add_argument("--out", help="directory for compare.csv and compare.png")
+    cmp.add_argument("--max-beta", type=_finite, default=85.0, help="largest incidence angle [deg]")
+    cmp.add_argument("--steps", type=_positive_int, default=35, help="number of incidence angles")
+    cmp.add_argument("--out", type=_out_dir, help="directory for compare.csv and compare.png")
     cmp.set_defaults(func=_compare)
-    figs = sub.add_parser("figures", help="the paper's Fig. 1 and claims 1°-5° as PNG files")
-    figs.add_argument("--out", default="figures", help="output directory (default ./figures)")
+    figs = sub.add_parser("figures", help="the paper's Fig. 1 and 2, claims 1°-5°, section 4's stability map")
+    figs.add_argument("--out", type=_out_dir, default="figures", help="output directory (default ./figures)")
     figs.set_defaults(func=_figures)
     run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
     run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")
-    run.add_argument("--out", help="directory for trajectory.csv, events.csv and plots.png")
+    run.add_argument("--out", type=_out_dir, help="directory for trajectory.csv, events.csv and plots.png")
     run.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     run.set_defaults(func=_run)
-    from ..simulation.schema import reference
-
     scene = sub.add_parser("scene", help="check a scene file; --help prints the scene-file reference",
                            formatter_class=argparse.RawDescriptionHelpFormatter, epilog=reference())
     scene.add_argument("scene", nargs="?", help="path to a scene TOML, or a shipped name (none: list them)")
     scene.set_defaults(func=_scene)
+    add_fit_parser(sub)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args))
     except ImpactError as exc:
+        print(f"mbimpact: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file that could not be written after all (disk full, removed directory)
         print(f"mbimpact: error: {exc}", file=sys.stderr)
         return 2

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -69,10 +70,14 @@ def write_outputs(scene: Scene, tr: Trajectory, out: str | Path) -> list[Path]:
                         *(int(a) for a in tr.active[k]), *tr.forces[k].ravel()])
     log = out / "events.csv"
     with log.open("w", newline="") as fh:
-        dw = csv.DictWriter(fh, fieldnames=[f.name for f in fields(ContactEvent)])
+        names = [f.name for f in fields(ContactEvent) if f.name != "point"]
+        dw = csv.DictWriter(fh, fieldnames=names + ["point_x", "point_y", "point_z"])
         dw.writeheader()
         for e in tr.events:
-            dw.writerow(asdict(e))
+            row = {k: v for k, v in asdict(e).items() if k != "point"}
+            point = e.point if e.point is not None else (math.nan,) * 3
+            row.update(point_x=point[0], point_y=point[1], point_z=point[2])
+            dw.writerow(row)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -81,27 +86,30 @@ def write_outputs(scene: Scene, tr: Trajectory, out: str | Path) -> list[Path]:
     groups: dict[str, list[str]] = {}
     for name in scene.record:
         groups.setdefault(state_unit(scene, name), []).append(name)
-    panels = 2 + nc + len(groups)
+    # a gap panel per contact that took part in an event (a robot paired with the ground by "all" has many
+    # contacts that never do), at most eight
+    shown = [i for i in range(nc) if any(e.contact == i for e in tr.events)][:8] or list(range(min(nc, 8)))
+    panels = 2 + len(shown) + len(groups)
     cols = min(panels, 3)
     rows = -(-panels // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 3.4 * rows), squeeze=False)
     flat = list(axes.ravel())
     flat[0].plot(tr.t, tr.energy)
     flat[0].set(xlabel="t [s]", ylabel="energy [J]", title="mechanical energy")
-    for i in range(nc):
-        flat[1].plot(tr.t, tr.gap_rates[:, i], label=f"{i}: {scene.contacts[i].frame}")
+    for i in shown:
+        flat[1].plot(tr.t, tr.gap_rates[:, i], label=f"{i}: {scene.contacts[i].label}")
     flat[1].set(xlabel="t [s]", ylabel="[m/s]", title="relative normal velocity of the contacts")
     flat[1].legend(fontsize=7)
-    for i in range(nc):
-        ax = flat[2 + i]
+    for slot, i in enumerate(shown):
+        ax = flat[2 + slot]
         ax.plot(tr.t, tr.gaps[:, i])
         ax.axhline(-tr.tolerance, color="C3", lw=0.6, ls=":")
         for e in tr.events:
             if e.contact == i and e.kind == "impact":
                 ax.axvline(e.t, color="0.8", lw=0.5)
-        ax.set(xlabel="t [s]", ylabel="gap [m]", title=f"contact {i} ({scene.contacts[i].frame}): gap")
+        ax.set(xlabel="t [s]", ylabel="gap [m]", title=f"contact {i} ({scene.contacts[i].label}): gap")
     for k, (unit, names) in enumerate(groups.items()):
-        ax = flat[2 + nc + k]
+        ax = flat[2 + len(shown) + k]
         for name in names:
             series = tr.q[:, int(name[1:])] if name[0] == "q" else tr.v[:, int(name[1:])]
             ax.plot(tr.t, series, label=name)

@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from ..results.impact import ContactImpulses
 from .base import Averaging
-from .kernels import AveragingSpec, check_facing, facet_terms, rule_average
+from .kernels import AveragingSpec, check_facing, facet_impulses, facet_terms, general_facets, rule_average
 
 __all__ = ["Exact", "MonteCarlo"]
 
@@ -19,6 +19,8 @@ class Exact(Averaging):
     Facets, and measured relief (Profile, HeightMap, with exact shadowing)."""
 
     name: ClassVar[str] = "exact"
+    #: Averages any facet law (:mod:`mbimpact.facets`), not only Newton's.
+    any_facet: ClassVar[bool] = True
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         (P,), (facets,) = rule_average(spec, W, U, (1,))
@@ -30,6 +32,7 @@ class MonteCarlo(Averaging):
     (the naive baseline); the error estimate is the delta-method standard error."""
 
     name: ClassVar[str] = "monte-carlo"
+    any_facet: ClassVar[bool] = True
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
         return False  # never chosen by "auto": it is the baseline the others are measured against
@@ -39,7 +42,10 @@ class MonteCarlo(Averaging):
         w, c = facet_terms(spec, m, np.ones(len(m)), W, U)
         total = w.sum(axis=1)
         check_facing(spec, total, U)
-        a = (1.0 + spec.e) * (w * c)[:, :, None] * m[None, :, :]  # (B, N, d)
+        if general_facets(spec):
+            a = w[:, :, None] * facet_impulses(spec, m, W, U, w)  # (B, N, d)
+        else:
+            a = (1.0 + spec.e) * (w * c)[:, :, None] * m[None, :, :]
         P = a.sum(axis=1) / total[:, None]
         resid = a - P[:, None, :] * w[:, :, None]
         n = spec.samples

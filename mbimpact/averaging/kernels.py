@@ -13,6 +13,13 @@ and its Newton impact has the contact impulse −(1+e) (mᵀu / mᵀWm) m, so th
 Written with the kernel powers (γ, δ) = (1, 0) (physical) or (3/2, 1/2)
 (configuration): N = Σ p (mᵀu)² m / (mᵀWm)^γ and D = Σ p (−mᵀu) / (mᵀWm)^δ — the
 form the closed-form averages (ring expansion, tilt tables, cone pairs) integrate.
+
+Other facet laws (:mod:`mbimpact.facets`: Coulomb, compliant, Hunt–Crossley facets) keep
+the weights and replace the Newton impulse by the facet law's own, P_i = facet.impulse(m_i, W, u):
+
+    P = Σ w P_i / Σ w                                    (:func:`facet_impulses`),
+
+which only the quadrature methods (exact, fixed, adaptive, graded, monte-carlo) evaluate.
 """
 
 from __future__ import annotations
@@ -27,10 +34,11 @@ from ..common.geometry import DEGENERATE
 from ..errors import NoFacingFacetError, ParameterError
 
 if TYPE_CHECKING:
+    from ..facets.base import FacetLaw
     from ..roughness.base import Roughness, Rule
 
-__all__ = ["Flux", "FLUXES", "check_flux", "kernel_powers", "AveragingSpec", "facet_terms", "rule_average",
-           "relative_change", "quotient", "check_facing"]
+__all__ = ["Flux", "FLUXES", "check_flux", "kernel_powers", "AveragingSpec", "facet_terms", "facet_impulses",
+           "general_facets", "rule_average", "relative_change", "quotient", "check_facing"]
 
 #: The weight of a facet in (2.7) (:class:`mbimpact.RoughLaw`).
 Flux = Literal["physical", "configuration"]
@@ -61,7 +69,7 @@ class AveragingSpec:
     roughness : Roughness
         The facet measure.
     e : float
-        Facet restitution.
+        Facet restitution (of Newton facets; the normal restitution of another facet law).
     flux : {"physical", "configuration"}
         The facet weight of (2.7).
     rtol : float
@@ -72,6 +80,9 @@ class AveragingSpec:
         Node count at which refinement stops.
     samples, seed : int
         Monte Carlo sample count and seed.
+    facet : FacetLaw or None
+        The facet law (:mod:`mbimpact.facets`); None, or a law with a ``newton_restitution``,
+        means Newton facets with restitution ``e``, the integrand of the closed-form averages.
     """
 
     roughness: Roughness
@@ -82,9 +93,35 @@ class AveragingSpec:
     max_nodes: int
     samples: int
     seed: int
+    facet: FacetLaw | None = None
 
     def __repr__(self) -> str:
+        if general_facets(self):
+            return f"RoughLaw({self.roughness!r}, facet={self.facet!r})"
         return f"RoughLaw({self.roughness!r}, e={self.e:g})"
+
+
+def general_facets(spec: AveragingSpec) -> bool:
+    """Whether the spec's facet law is not Newton's, so that only the quadrature methods apply."""
+    return spec.facet is not None and spec.facet.newton_restitution is None
+
+
+def facet_impulses(spec: AveragingSpec, m: NDArray[np.float64], W: NDArray[np.float64], U: NDArray[np.float64],
+                   w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Impulses P_i (B, K, d) of the facet law on every facet with weight w > 0 (zero elsewhere).
+
+    ``m`` is (K, d) or (B, K, d) as in :func:`facet_terms`, ``w`` (B, K) its weights; the facet law
+    is called once on the facing (row, facet) pairs, :meth:`mbimpact.facets.FacetLaw.impulse`.
+    """
+    assert spec.facet is not None
+    B, K = w.shape
+    d = U.shape[1]
+    out = np.zeros((B, K, d))
+    rows, cols = np.nonzero(w > 0.0)
+    if rows.size:
+        normals = m[cols] if m.ndim == 2 else m[rows, cols]
+        out[rows, cols] = spec.facet.impulse(normals, W, U[rows])
+    return out
 
 
 def facet_terms(spec: AveragingSpec, m: NDArray[np.float64], p: NDArray[np.float64], W: NDArray[np.float64],
@@ -128,6 +165,17 @@ def rule_average(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.floa
         p = np.concatenate([r[1] if r[1].ndim == 2 else np.broadcast_to(r[1], (B, k))
                             for r, k in zip(rules, sizes)], axis=1)
     w, c = facet_terms(spec, m, p, W, U)
+    if general_facets(spec):
+        wP = w[:, :, None] * facet_impulses(spec, m, W, U, w)
+        out, start = [], 0
+        for k in sizes:
+            part = slice(start, start + k)
+            start += k
+            total = w[:, part].sum(axis=1)
+            check_facing(spec, total, U)
+            # sum along a contiguous last axis (pairwise rounding, as for Newton facets below)
+            out.append(np.ascontiguousarray(np.moveaxis(wP[:, part], 1, 2)).sum(axis=2) / total[:, None])
+        return out, sizes
     wc = w * c
     out = []
     start = 0

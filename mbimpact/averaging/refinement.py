@@ -31,6 +31,7 @@ class Fixed(Averaging):
     Chosen by ``"auto"`` when ``RoughLaw(nodes=...)`` is given."""
 
     name: ClassVar[str] = "fixed"
+    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
         return spec.nodes is not None
@@ -45,6 +46,7 @@ class Adaptive(Averaging):
     when ``max_nodes`` or rounding amplified by |W||P|/|WP| stopped it short."""
 
     name: ClassVar[str] = "adaptive"
+    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
         return spec.nodes is None
@@ -64,6 +66,7 @@ class Graded(Averaging):
     """
 
     name: ClassVar[str] = "graded"
+    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
     peaked: ClassVar[float] = 0.15
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:

@@ -11,6 +11,7 @@ from .geometry import (
     incidence_split,
     offset_point_jacobian,
     ring_quadratic_form,
+    scaled_norm,
 )
 from .validation import as_array, as_count, as_scalar, as_vector
 
@@ -22,6 +23,7 @@ __all__ = [
     "incidence_split",
     "offset_point_jacobian",
     "ring_quadratic_form",
+    "scaled_norm",
     "as_array",
     "as_count",
     "as_scalar",

@@ -30,6 +30,7 @@ __all__ = [
     "incidence_split",
     "offset_point_jacobian",
     "ring_quadratic_form",
+    "scaled_norm",
 ]
 
 #: A facet (or base normal) with mᵀWm ≤ DEGENERATE · trace(W) cannot be moved along by the
@@ -83,6 +84,16 @@ def ring_quadratic_form(s: Any, c: Any, W: NDArray[np.float64]) -> tuple[Any, An
     w = W.tolist()
     return (0.5 * s * s * (w[0][0] + w[1][1]) + c * c * w[2][2], 2 * s * c * w[0][2], 2 * s * c * w[1][2],
             0.5 * s * s * (w[0][0] - w[1][1]), s * s * w[0][1])
+
+
+def scaled_norm(x: NDArray[np.float64], axis: int = -1) -> Any:
+    """Euclidean norm along ``axis`` without overflow or underflow of the squares (|x| up to the
+    largest float): the vectors are divided by their largest entry first."""
+    x = np.asarray(x, dtype=float)
+    big = np.abs(x).max(axis=axis, keepdims=True)
+    safe = np.where(big > 0.0, big, 1.0)
+    out = np.squeeze(big, axis=axis) * np.linalg.norm(x / safe, axis=axis)
+    return float(out) if out.ndim == 0 else out
 
 
 def offset_point_jacobian(J6: NDArray[np.float64], r: NDArray[np.float64] | None) -> NDArray[np.float64]:

@@ -25,7 +25,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import offset_point_jacobian
-from ..common.validation import as_array, as_scalar
+from ..common.validation import as_array, as_count, as_scalar
 from ..mechanism.contact import PointContact
 from ..errors import (
     IntegrationError,
@@ -39,6 +39,9 @@ from ..laws.restitution import impact_duration, k_from_e
 from ..roughness.base import check_normals
 
 __all__ = ["Resolved", "resolve"]
+
+# stiff-capable integrators of scipy.integrate.solve_ivp
+_METHODS = ("LSODA", "Radau", "BDF")
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,6 +120,7 @@ def resolve(
     method: str = "LSODA",
     t_max: float | None = None,
     surface_points: ArrayLike | None = None,
+    max_evaluations: int = 100_000,
 ) -> Resolved:
     """Integrate one or several Kelvin–Voigt contacts from touch-down to separation.
 
@@ -147,6 +151,12 @@ def resolve(
         Integration limit; default 50 π / min(M) (k = 1 never separates: the limit is reported).
     surface_points : array_like, shape (c, 3), optional
         A point of each contact's surface plane; then f(q⁰) must be 0 (checked).
+    max_evaluations : int
+        Bound on the right-hand-side evaluations (a few thousand suffice for an ordinary impact);
+        beyond it an :class:`IntegrationError` says where the integration was (the time reached and
+        the contacts' penetrations). The full dynamics of an arm at a nearly singular posture is so
+        stiff that it may need more; ``dynamics="impact"`` (A and J frozen, (2.4)) resolves such an
+        impact in a few hundred.
 
     Returns
     -------
@@ -155,7 +165,8 @@ def resolve(
     Raises
     ------
     ParameterError
-        M ≤ 0, k or e outside [0, 1], both k and e.
+        M outside [1e-3, 1e9], k or e outside [0, 1], both k and e, rtol outside [1e-13, 1e-3],
+        t_max ≤ 0, an unknown dynamics or method.
     NoImpactError
         No contact approaches its surface.
     NoFacingFacetError
@@ -171,9 +182,17 @@ def resolve(
     if c == 0:
         raise ShapeError("at least one contact is needed")
     q0, v0 = mech.check_state(q, v)
-    Ms = [as_scalar("M", m, 0.0, math.inf) for m in cast(list[float], _per_contact("M", M, c))]  # M is never None
-    if any(m <= 0 for m in Ms):
-        raise ParameterError(f"stiffness M must be > 0, got {M}")
+    # M sets the time scale π/M of a facet impact: beyond these bounds the times underflow or the
+    # integration of the full dynamics over ~50π/M runs for ever
+    Ms = [as_scalar("M", m, 1e-3, 1e9) for m in cast(list[float], _per_contact("M", M, c))]
+    if dynamics not in ("full", "impact"):
+        raise ParameterError(f"dynamics must be 'full' (Pinocchio ABA) or 'impact' (A and J frozen, (2.4)), got {dynamics!r}")
+    if method not in _METHODS:
+        raise ParameterError(f"method must be one of the stiff integrators {', '.join(_METHODS)}, got {method!r}")
+    rtol = as_scalar("rtol", rtol, 1e-13, 1e-3)
+    if t_max is not None:
+        t_max = as_scalar("t_max", t_max, 0.0, math.inf, lo_open=True)
+    max_evaluations = as_count("max_evaluations", max_evaluations, 100, 10**9)
     if k is not None and e is not None:
         raise ParameterError("give at most one of k (damping ratio) or e (restitution)")
     if e is not None:
@@ -286,6 +305,10 @@ def resolve(
         sol = solve_ivp(rhs, (t0, t1), y, method=method, events=events or None, rtol=rtol, atol=atol,
                         first_step=min(1e-3 / float(Mv.max()), (t1 - t0) / 4))
         nfev += sol.nfev
+        if nfev > max_evaluations:
+            raise IntegrationError(f"the compliant impact needed more than {max_evaluations} evaluations; stopped at "
+                                   f"t = {t0:.6g} of {t_end:.6g} (τ = {float(tau_facet.min()):.3g}), penetrations "
+                                   f"{np.round(-state(sol.y[:, -1])[1], 12).tolist()}")
         if sol.status == -1:
             raise IntegrationError(f"integration stopped at t = {sol.t[-1]:.6g} of {t_end:.6g}: {sol.message}")
         ts.extend(sol.t[1:].tolist())

@@ -105,7 +105,11 @@ class ImpactLaw(ABC):
         # directions so that velocity scales far from 1 neither under- nor overflow.
         big = np.abs(U).max(axis=1)
         speed = big * np.linalg.norm(U / big[:, None], axis=1)
+        # and of degree −1 in W: the law sees W of unit trace, whatever the units and scale of the
+        # mechanism (mass matrices from 1e-100 to 1e100 neither under- nor overflow inside it)
         W_local = R.T @ W @ R
+        w_scale = float(np.trace(W_local))
+        W_local = W_local / w_scale
         U_local = (U @ R) / speed[:, None]
         if len(U) <= self.block_rows:
             out = self.contact_impulses(W_local, U_local)
@@ -124,7 +128,7 @@ class ImpactLaw(ABC):
             # rank-deficient J: report the minimum-norm impulse, the only one that
             # does not depend on how the quadrature split the part in null(Jᵀ)
             P = P @ proj
-        return ContactImpulses(P * speed[:, None], err, nodes, method)
+        return ContactImpulses(P * (speed / w_scale)[:, None], err, nodes, method)
 
     # ------------------------------------------------------------------ single
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:

@@ -1,4 +1,9 @@
-"""Ivanov's rough-surface law (2.8): the flux-weighted average of facet impacts."""
+"""Ivanov's rough-surface law (2.8): the flux-weighted average of facet impacts.
+
+The facet impact is Newton's (2.6) by default, the paper's; any facet law of
+:mod:`mbimpact.facets` can replace it (``RoughLaw(roughness, facet=CoulombFacet(e, mu))``):
+the flux weights (2.7) stay, only the impulse of one facet changes.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +13,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..averaging import AUTO_ORDER, METHODS, Averaging
-from ..averaging.kernels import AveragingSpec, Flux, check_flux
+from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
+from ..facets.base import FacetLaw, method_label
+from ..facets.newton import NewtonFacet
+from ..metric.delassus import ContactMetric
 from ..results.impact import ContactImpulses
 from ..results.quantities import SEPARATION_RTOL
 from ..roughness.base import Roughness
@@ -40,10 +48,19 @@ class RoughLaw(ImpactLaw):
     roughness : Roughness
         Facet-normal measure (:class:`Smooth`, :class:`Sawtooth`, :class:`Cone`,
         :class:`Facets`, :class:`GaussianSlopes`, :class:`Profile`, ...).
-    e : float, optional
-        Facet restitution in [0, 1].
+    e : float or FacetLaw, optional
+        Facet restitution in [0, 1] of Newton facets: ``RoughLaw(rough, e)`` is
+        ``RoughLaw(rough, facet=NewtonFacet(e))``. A facet law given here is taken as ``facet``.
     k : float, optional
         Kelvin–Voigt damping ratio in [0, 1] instead of ``e``; exactly one.
+    facet : FacetLaw, optional
+        The impact on one facet, instead of ``e``/``k`` (:mod:`mbimpact.facets`):
+        :class:`NewtonFacet` (the paper's, with every averaging method),
+        :class:`CoulombFacet`, :class:`CompliantFacet`, :class:`HuntCrossleyFacet`
+        (the quadrature methods only: ``exact``, ``fixed``, ``adaptive``, ``graded``,
+        ``monte-carlo``; naming ``ring``, ``tilt-table`` or ``cone-pair`` is a
+        :class:`ParameterError`). Results record the facet law in ``method``:
+        ``"adaptive[coulomb]"`` (Newton facets keep the bare averaging name).
     flux : {"physical", "configuration"}
         Weight of a facet in (2.7). ``"physical"`` (default): pᵢ (−mᵢᵀu), the rate
         at which the contact point, moving along u = J v, sweeps facet i of a
@@ -59,10 +76,12 @@ class RoughLaw(ImpactLaw):
         :data:`mbimpact.averaging.METHODS` (``"exact"``, ``"ring"``, ``"tilt-table"``,
         ``"graded"``, ``"cone-pair"``, ``"fixed"``, ``"adaptive"``,
         ``"monte-carlo"``). The result records which ran (``result.method``).
-    rtol : float
+    rtol : float, optional
         Relative accuracy of the adaptive quadrature for measures that are not
-        finite; node counts are doubled until two successive results agree to
-        ``rtol`` (or to the rounding floor 100 ε √K of a K-facet sum, if larger).
+        finite (default: the facet law's :meth:`~mbimpact.facets.FacetLaw.quadrature_rtol`:
+        1e-12 for Newton and Hunt–Crossley facets, 1e-4 to 1e-3 for Coulomb and compliant
+        ones); node counts are doubled until two successive results agree to ``rtol``
+        (or to the rounding floor 100 ε √K of a K-facet sum, if larger).
         When W nearly annihilates the impulse (|W| |P| ≫ |W P|, an ill-conditioned
         contact) the results stop improving above rtol; refinement then stops and
         an :class:`AccuracyWarning` reports the error reached.
@@ -81,12 +100,17 @@ class RoughLaw(ImpactLaw):
         ``repeat=True`` the law is applied again to the new contact velocity, with
         the same W, until the contact separates; once the velocity's direction has
         settled (a fixed direction or a two-cycle between the walls of a valley, along
-        which the velocity shrinks geometrically), the limit is the impulse that stops
-        the contact point, P = −W⁺ u₋. Default False: one application, and a
+        which the velocity shrinks geometrically) or is seen to converge geometrically
+        to such a direction, the limit is the impulse that stops the contact point,
+        P = −W⁺ u₋. Default False: one application, and a
         :class:`NoSeparationWarning` when the contact still approaches.
 
     Notes
     -----
+    A speed-dependent facet law (:class:`HuntCrossleyFacet`) makes the law inhomogeneous:
+    :meth:`impulses` then hands the averaging physical contact velocities (m/s) instead of
+    unit ones, and :meth:`contact_impulses` reads its ``U`` as physical.
+
     For a nearly singular W (an arm near a singular posture) the kernels of (2.8)
     peak sharply where mᵀWm is smallest; ``"auto"`` then grades the rule towards
     the peaks by sinh maps (``"graded"``), converging with tens of nodes where a
@@ -106,12 +130,13 @@ class RoughLaw(ImpactLaw):
     def __init__(
         self,
         roughness: Roughness,
-        e: float | None = None,
+        e: float | FacetLaw | None = None,
         *,
         k: float | None = None,
+        facet: FacetLaw | None = None,
         flux: Flux = "physical",
         method: str | Averaging | type[Averaging] = "auto",
-        rtol: float = 1e-12,
+        rtol: float | None = None,
         nodes: int | None = None,
         max_nodes: int | None = None,
         samples: int = 10_000,
@@ -123,15 +148,20 @@ class RoughLaw(ImpactLaw):
                 "roughness must be a Roughness measure (Smooth, Sawtooth, Cone, Facets, ...), "
                 f"got {type(roughness).__name__}"
             )
-        e = restitution_from(e, k)
+        facet = _facet_law(e, k, facet)
+        newton_e = facet.newton_restitution
+        e_value = facet.e if newton_e is None else newton_e
+        if rtol is None:
+            rtol = facet.quadrature_rtol(roughness.dim)
         node_count = None if nodes is None else as_count("nodes", nodes, 1, self.max_node_count)
         limit = roughness.node_limit if max_nodes is None else as_count(
             "max_nodes", max_nodes, max(1, roughness.initial_nodes), self.max_node_count)
         self.spec = AveragingSpec(
-            roughness, e, check_flux(flux), as_scalar("rtol", rtol, 0.0, 1.0, hi_open=True), node_count, limit,
-            as_count("samples", samples, 2, self.max_samples), as_count("seed", seed, 0, 2**63 - 1),
+            roughness, e_value, check_flux(flux), as_scalar("rtol", rtol, 0.0, 1.0, hi_open=True), node_count, limit,
+            as_count("samples", samples, 2, self.max_samples), as_count("seed", seed, 0, 2**63 - 1), facet,
         )
-        self.e = e
+        self.e = e_value
+        self.facet = facet
         self.method = _method(method, self.spec)
         if not isinstance(repeat, bool):
             raise ParameterError(f"repeat must be True or False, got {repeat!r}")
@@ -151,19 +181,27 @@ class RoughLaw(ImpactLaw):
     def replace(self, **changes: Any) -> RoughLaw:
         """A copy with some settings changed, e.g. ``law.replace(repeat=True)``.
 
-        Accepts the constructor's keywords (``roughness``, ``e``, ``flux``, ``method``, ``rtol``,
-        ``nodes``, ``max_nodes``, ``samples``, ``seed``, ``repeat``).
+        Accepts the constructor's keywords (``roughness``, ``e`` or ``k`` (Newton facets), ``facet``,
+        ``flux``, ``method``, ``rtol``, ``nodes``, ``max_nodes``, ``samples``, ``seed``, ``repeat``).
+        A law at its default accuracy keeps the default of the new facet law and roughness.
         """
         settings: dict[str, Any] = {
-            "e": self.e, "flux": self.flux, "method": self.method if self.method is not None else "auto",
+            "facet": self.facet, "flux": self.flux, "method": self.method if self.method is not None else "auto",
             "rtol": self.rtol, "nodes": self.nodes, "max_nodes": self.max_nodes, "samples": self.samples,
             "seed": self.seed, "repeat": self.repeat,
         }
-        unknown = set(changes) - set(settings) - {"roughness"}
+        unknown = set(changes) - set(settings) - {"roughness", "e", "k"}
         if unknown:
-            raise ParameterError(f"RoughLaw.replace got unknown settings {sorted(unknown)}; valid: roughness, "
+            raise ParameterError(f"RoughLaw.replace got unknown settings {sorted(unknown)}; valid: roughness, e, k, "
                                  + ", ".join(settings))
         roughness = changes.pop("roughness", self.roughness)
+        if "e" in changes or "k" in changes:
+            if "facet" in changes or self.facet.newton_restitution is None:
+                raise ParameterError(f"RoughLaw.replace: e and k set the restitution of Newton facets; this law has "
+                                     f"{self.facet!r}: give facet=... instead")
+            changes["facet"] = NewtonFacet(restitution_from(changes.pop("e", None), changes.pop("k", None)))
+        if "rtol" not in changes and self.rtol == self.facet.quadrature_rtol(self.roughness.dim):
+            del settings["rtol"]  # the default accuracy goes with the facet law and the roughness
         settings.update(changes)
         return RoughLaw(roughness, **settings)
 
@@ -177,48 +215,87 @@ class RoughLaw(ImpactLaw):
             extra += f", nodes={self.nodes}"
         if self.repeat:
             extra += ", repeat=True"
+        if self.facet.newton_restitution is None:
+            return f"RoughLaw({self.roughness!r}, facet={self.facet!r}{extra})"
         return f"RoughLaw({self.roughness!r}, e={self.e:g}{extra})"
 
     @property
     def dim(self) -> int | None:
         return self.roughness.dim
 
+    def impulses(self, metric: ContactMetric, U: NDArray[np.float64], R: NDArray[np.float64]) -> ContactImpulses:
+        """:meth:`ImpactLaw.impulses`; for a speed-dependent facet law the averaging gets the physical speeds.
+
+        :meth:`ImpactLaw.impulses` scales every row to unit speed (property 1°) before
+        :meth:`contact_impulses`. A facet law that is not homogeneous (``facet.homogeneous``
+        False) needs the speed: the same pipeline then runs through a per-call view of this law
+        that carries the row speeds |U| and multiplies them back in before averaging.
+        """
+        if self.facet.homogeneous:
+            return super().impulses(metric, U, R)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            big = np.abs(U).max(axis=1)
+            speed = big * np.linalg.norm(U / big[:, None], axis=1)  # as ImpactLaw.impulses computes it
+        return _AtSpeeds(self, speed).impulses(metric, U, R)
+
     def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
-        out = self.average(W, U)
+        return self.contact_impulses_at(W, U, None)
+
+    def contact_impulses_at(self, W: NDArray[np.float64], U: NDArray[np.float64],
+                            speed: NDArray[np.float64] | None) -> ContactImpulses:
+        """:meth:`contact_impulses` for unit velocities ``U`` (B, d) whose physical speeds are ``speed`` (B,).
+
+        ``speed`` matters only for a speed-dependent facet law; None takes ``U`` as physical. The
+        impulses returned are those of the unit velocities (divided by ``speed``), like every law's.
+        """
+        if speed is None or self.facet.homogeneous:
+            out = self.average(W, U)
+            speed = None
+        else:
+            out = self.average(W, U * speed[:, None])
+            out = ContactImpulses(out.P / speed[:, None], out.error, out.nodes, out.method)
         if not self.repeat:
             return out
-        return self._repeated(W, U, out)
+        return self._repeated(W, U, out, speed)
 
     def average(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
-        """One application of (2.8) to unit local-frame velocities U (B, d), by the law's
-        averaging method (or the first of :data:`mbimpact.averaging.AUTO_ORDER` that accepts)."""
+        """One application of (2.8) to local-frame velocities U (B, d) — unit ones, or physical ones for
+        a speed-dependent facet law — by the law's averaging method (or the first of
+        :data:`mbimpact.averaging.AUTO_ORDER` that accepts). Facet laws other than Newton's label
+        ``method`` with their name (``"adaptive[coulomb]"``)."""
         spec = self.spec
+        general = general_facets(spec)
         if self.method is not None:
             out = self.method.average(spec, W, U)
             if out is None:
                 raise ParameterError(f"{self!r}: {self.method.reason(spec)}")
-            return out
+            return _labelled(out, self.facet) if general else out
         for name in AUTO_ORDER:
             method = _INSTANCES[name]
+            if general and not _any_facet(method):
+                continue
             if method.supports(spec) and method.worthwhile(spec, W, U):
                 out = method.average(spec, W, U)
                 if out is not None:
-                    return out
+                    return _labelled(out, self.facet) if general else out
         raise AssertionError(f"no averaging method accepted {self!r}")  # pragma: no cover — adaptive always does
 
-    def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], first: ContactImpulses) -> ContactImpulses:
+    def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], first: ContactImpulses,
+                  physical: NDArray[np.float64] | None = None) -> ContactImpulses:
         """Apply (2.8) again to the rows whose contact still approaches, until it separates.
 
         (2.8) is positively homogeneous of degree 1, so the micro-impacts either throw the
         contact off after finitely many of them, or their directions settle into a fixed
         direction or a two-cycle (bouncing between the walls of a valley) along which
         u_{k+p} = ρ u_k with ρ < 1: the velocities then shrink geometrically to u = 0, and
-        the limit of the impulses is the one that stops the contact point, P = −W⁺ u₋."""
+        the limit of the impulses is the one that stops the contact point, P = −W⁺ u₋.
+        (For a speed-dependent facet law, ``physical`` holds the rows' physical speeds.)"""
         total, err, nodes = first.P.copy(), first.error.copy(), first.nodes
         B, d = U.shape
         u = U + total @ W  # W is symmetric
         dirs = np.full((2, B, d), np.nan)  # the last two directions of each row, oldest first
         speeds = np.ones((2, B))
+        steps = np.full((2, B), np.nan)  # the last two changes of direction |d_k − d_{k−1}|
         todo = np.flatnonzero(u[:, -1] < -SEPARATION_RTOL)  # U is unit
         for _ in range(self.max_repeats):
             if not todo.size:
@@ -229,6 +306,16 @@ class RoughLaw(ImpactLaw):
             for period in (1, 2):
                 rho = speed / speeds[2 - period, todo]
                 stuck |= (np.einsum("bd,bd->b", direction, dirs[2 - period, todo]) > 1.0 - self.settled) & (rho < 1.0)
+            # a direction converging geometrically (to a fixed point or a two-cycle): its changes shrink
+            # by r < 1, so it moves at most step·r/(1 − r) more; if that cannot bring it to the tangent
+            # plane and the speed keeps shrinking, the contact is being stopped: settle now
+            step = np.linalg.norm(direction - dirs[1, todo], axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                r = np.maximum(step / steps[1, todo], steps[1, todo] / steps[0, todo])
+                drift = step * r / (1.0 - r)
+            shrinking = (speed < speeds[1, todo]) & (speeds[1, todo] < speeds[0, todo])
+            stuck |= (r < 0.9) & shrinking & (drift < 0.1 * -direction[:, -1])
+            steps[0, todo], steps[1, todo] = steps[1, todo], step
             if stuck.any():
                 rows = todo[stuck]
                 total[rows] = -np.linalg.lstsq(W, U[rows].T, rcond=1e-12)[0].T  # u₋ + W P = 0
@@ -236,8 +323,12 @@ class RoughLaw(ImpactLaw):
                 todo, speed, direction = todo[~stuck], speed[~stuck], direction[~stuck]
                 if not todo.size:
                     break
-            more = self.average(W, direction)
-            Pk = more.P * speed[:, None]
+            if physical is None:
+                more = self.average(W, direction)
+                Pk = more.P * speed[:, None]
+            else:
+                more = self.average(W, direction * (speed * physical[todo])[:, None])
+                Pk = more.P / physical[todo][:, None]
             nodes = max(nodes, more.nodes)
             err[todo] = np.maximum(err[todo], more.error)
             total[todo] += Pk
@@ -251,12 +342,61 @@ class RoughLaw(ImpactLaw):
         return ContactImpulses(total, err, nodes, first.method)
 
 
+class _AtSpeeds(ImpactLaw):
+    """A rough law with a speed-dependent facet law at given row speeds: the pipeline of
+    :meth:`ImpactLaw.impulses` with :meth:`RoughLaw.contact_impulses_at` as its core (one block:
+    the speeds are per row)."""
+
+    block_rows: ClassVar[int] = 2**62
+
+    def __init__(self, law: RoughLaw, speed: NDArray[np.float64]) -> None:
+        self.law, self.speed, self.e = law, speed, law.e
+
+    @property
+    def dim(self) -> int | None:
+        return self.law.dim
+
+    def __repr__(self) -> str:
+        return repr(self.law)
+
+    def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        return self.law.contact_impulses_at(W, U, self.speed)
+
+
+def _facet_law(e: object, k: float | None, facet: object) -> FacetLaw:
+    """The facet law of ``RoughLaw(roughness, e | k | facet)``."""
+    if isinstance(e, FacetLaw):
+        if facet is not None:
+            raise ParameterError("give the facet law once: RoughLaw(roughness, facet=...) or "
+                                 "RoughLaw(roughness, facet)")
+        e, facet = None, e
+    if facet is None:
+        return NewtonFacet(restitution_from(e, k))  # type: ignore[arg-type]
+    if not isinstance(facet, FacetLaw):
+        raise ParameterError(f"facet must be a facet law (NewtonFacet, CoulombFacet, CompliantFacet, "
+                             f"HuntCrossleyFacet, ...), got {facet!r}")
+    if e is not None or k is not None:
+        raise ParameterError(f"give either e/k (Newton facets) or facet, not both; {facet!r} has its own restitution")
+    return facet
+
+
+def _any_facet(method: Averaging) -> bool:
+    """Whether an averaging method evaluates any facet law (the quadrature methods), not only Newton's."""
+    return bool(getattr(method, "any_facet", False))
+
+
+def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
+    """The result of an average of facets other than Newton's: ``method`` names both, "adaptive[coulomb]"
+    (:func:`mbimpact.facets.method_label`)."""
+    return ContactImpulses(out.P, out.error, out.nodes, method_label(out.method, facet))
+
+
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}
 
 
 def _method(method: object, spec: AveragingSpec) -> Averaging | None:
-    """The averaging method a user asked for (None: auto), checked against the measure."""
+    """The averaging method a user asked for (None: auto), checked against the measure and the facet law."""
     if isinstance(method, str):
         if method == "auto":
             return None
@@ -275,6 +415,10 @@ def _method(method: object, spec: AveragingSpec) -> Averaging | None:
         usable = [n for n, m in _INSTANCES.items() if m.supports(spec)]
         raise ParameterError(f"the '{chosen.name}' averaging cannot average {spec.roughness!r}; "
                              f"methods for this measure: {', '.join(usable)}")
+    if general_facets(spec) and not _any_facet(chosen):
+        usable = [n for n, m in _INSTANCES.items() if _any_facet(m) and m.supports(spec)]
+        raise ParameterError(f"the '{chosen.name}' averaging integrates Newton facets in closed form and cannot "
+                             f"average {spec.facet!r}; methods for this facet law and measure: {', '.join(usable)}")
     return chosen
 
 

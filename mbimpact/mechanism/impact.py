@@ -6,7 +6,6 @@ impulse (stages 3–5) → Δv = A⁻¹ Jᵀ P and I = Jᵀ P by Lagrange's equa
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -15,18 +14,14 @@ from ..common.validation import as_array
 from ..errors import ParameterError, ShapeError
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ImpactResult
+from ..laws.base import ImpactLaw
 from .contact import Contact
 from .mechanism import Mechanism
-
-if TYPE_CHECKING:
-    from ..laws.base import ImpactLaw
 
 __all__ = ["impact", "impact_batch"]
 
 
 def _check_parts(mech: object, contact: object, law: object) -> None:
-    from ..laws.base import ImpactLaw
-
     if not isinstance(mech, Mechanism):
         raise ParameterError(f"mech must be an mbimpact.Mechanism, got {type(mech).__name__}")
     if not isinstance(contact, Contact):
@@ -65,7 +60,7 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     NoImpactError, NoFacingFacetError
         The contact point does not approach the surface, or no facet faces it.
     """
-    if type(mech) is not Mechanism or not isinstance(contact, Contact):
+    if type(mech) is not Mechanism or not isinstance(contact, Contact) or not isinstance(law, ImpactLaw):
         _check_parts(mech, contact, law)
     q, v = mech.check_state(q, v)
     J, R = contact.jacobian(mech, q, law.dim or 3)

@@ -12,7 +12,8 @@ import itertools
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -22,6 +23,9 @@ from ..common.geometry import offset_point_jacobian
 from ..common.validation import as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from .robots import close_matches, model_path, robot_urdf
+
+if TYPE_CHECKING:  # the geometry layer is imported on use: frame contacts never load it
+    from ..geometry.collision_model import CollisionModel
 
 __all__ = ["Mechanism", "MassFactor"]
 
@@ -123,19 +127,10 @@ class Mechanism:
         RobotNotFoundError
             The file is missing or cannot be parsed.
         """
-        if not isinstance(floating, bool):
-            raise ParameterError(f"floating must be True or False, got {floating!r}")
-        path = Path(path)
-        if not path.is_file():
-            raise RobotNotFoundError(f"URDF file {str(path)!r} not found")
-        try:
-            if floating:
-                model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
-            else:
-                model = pin.buildModelFromUrdf(str(path))
-        except (RuntimeError, ValueError) as exc:
-            raise RobotNotFoundError(f"could not parse URDF {str(path)!r}: {exc}") from exc
-        return cls(model, name or path.stem, path)
+        def build(file: str) -> Any:
+            return pin.buildModelFromUrdf(file, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromUrdf(file)
+
+        return cls._from_file("URDF", build, path, floating, name)
 
     @classmethod
     def from_robot(cls, name: str, floating: bool | None = None) -> Mechanism:
@@ -163,6 +158,57 @@ class Mechanism:
         if floating is None:
             floating = pin.buildModelFromUrdf(str(path)).nv == 0
         return cls.from_urdf(path, floating, name)
+
+    @classmethod
+    def from_mjcf(cls, path: str | Path, floating: bool = False, name: str | None = None) -> Mechanism:
+        """Build from a MuJoCo MJCF file through Pinocchio's parser (kinematics and inertias; the
+        collision geoms are loaded on first use, see :meth:`collision_model`).
+
+        The MJCF's own joints are kept: a body with a ``<freejoint>`` floats. Where MJCF places
+        such a body (its ``pos``) is only in ``model.referenceConfigurations["qpos0"]``; the
+        neutral configuration puts it at the origin.
+
+        Limits of Pinocchio 4.1's parser: only the first top-level ``<body>`` of ``<worldbody>``
+        is read (wrap several free bodies in one jointless body), a jointless first body loses its
+        ``pos``, and the file must be a path (not an XML string).
+
+        Parameters
+        ----------
+        path : str or Path
+            MJCF (``.xml``) file.
+        floating : bool
+            Add a free-flyer root joint (for a model whose root body has no joint of its own).
+
+        Raises
+        ------
+        RobotNotFoundError
+            The file is missing or cannot be parsed.
+        """
+        import warnings
+
+        def build(file: str) -> Any:
+            if not floating:
+                return pin.buildModelFromMJCF(file)
+            with warnings.catch_warnings():  # 4.1 deprecates this form (it returns the constraints too)
+                warnings.simplefilter("ignore", DeprecationWarning)
+                return pin.buildModelFromMJCF(file, pin.JointModelFreeFlyer(), "root_joint")[0]
+
+        return cls._from_file("MJCF", build, path, floating, name)
+
+    @classmethod
+    def _from_file(cls, kind: str, build: Callable[[str], Any], path: str | Path, floating: bool,
+                   name: str | None) -> Mechanism:
+        """Validate ``floating`` and ``path``, then build the model, naming parse errors."""
+        if not isinstance(floating, bool):
+            raise ParameterError(f"floating must be True or False, got {floating!r}")
+        path = Path(path)
+        if not path.is_file():
+            raise RobotNotFoundError(f"{kind} file {str(path)!r} not found")
+        try:
+            model = build(str(path))
+        except (RuntimeError, ValueError) as exc:
+            raise RobotNotFoundError(f"could not parse {kind} {str(path)!r}: {exc}") from exc
+        return cls(model, name or path.stem, path)
 
     # ------------------------------------------------------------ dimensions
     @property
@@ -294,6 +340,29 @@ class Mechanism:
         M = self.data.oMf[fid]
         p = _offset(point)
         return M.translation + (M.rotation @ p if p is not None else 0.0)
+
+    # ------------------------------------------------------------ collision geometry
+    def collision_model(self) -> CollisionModel:
+        """The collision objects of the mechanism (:class:`mbimpact.geometry.CollisionModel`).
+
+        Loaded from the model file on the first call (URDF ``<collision>`` elements or MJCF
+        collision geoms; meshes as convex hulls), then kept with the mechanism; nothing is loaded
+        before, so frame contacts never pay for it. A mechanism built from a ``pinocchio.Model``
+        without a file gets an empty model, to which shapes can be attached
+        (:meth:`~mbimpact.geometry.CollisionModel.add`).
+
+        Raises
+        ------
+        GeometryError
+            A mesh cannot be found or read.
+        """
+        from ..geometry.loading import collision_model
+
+        return collision_model(self)
+
+    def collision_names(self) -> list[str]:
+        """Names of the mechanism's collision objects (loads them, see :meth:`collision_model`)."""
+        return self.collision_model().names
 
 
 def _offset(point: ArrayLike | None) -> NDArray[np.float64] | None:

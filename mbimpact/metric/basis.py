@@ -37,7 +37,11 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
     """
     if d not in (2, 3):
         raise ShapeError(f"contact-space dimension must be 2 or 3, got {d}")
-    f = as_array("frame", frame, np.ndim(frame))
+    try:
+        ndim = np.ndim(frame)
+    except ValueError as exc:  # ragged nested sequences
+        raise ShapeError(f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}): {exc}") from None
+    f = as_array("frame", frame, ndim)
     if f.shape == (d,):
         # in floats: a basis is built on every call of ImpactLaw.apply
         n = f.tolist()

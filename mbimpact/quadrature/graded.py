@@ -129,8 +129,9 @@ def ring_minima_many(alpha: NDArray[np.float64], W: NDArray[np.float64]) -> tupl
             break
     qmin, _, d2q, d4q = derivatives(phi)
     qmin = np.maximum(qmin, 0.0)
-    eps = np.sqrt(2.0 * qmin / np.maximum(d2q, 1e-300))
-    eps = np.where(d4q > 0, np.minimum(eps, (24.0 * qmin / np.maximum(d4q, 1e-300)) ** 0.25), eps)
+    with np.errstate(over="ignore", divide="ignore"):  # a flat q (rank-deficient W): an infinite width, no peak
+        eps = np.sqrt(2.0 * qmin / np.maximum(d2q, 1e-300))
+        eps = np.where(d4q > 0, np.minimum(eps, (24.0 * qmin / np.maximum(d4q, 1e-300)) ** 0.25), eps)
     return np.where(found, np.mod(phi, 2 * math.pi), np.nan), np.where(found, eps, np.nan)
 
 

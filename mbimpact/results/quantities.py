@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..common.geometry import scaled_norm
+
 __all__ = ["SEPARATION_RTOL", "normal_part", "restitution", "friction_ratio", "energy_loss", "separates"]
 
 #: A contact separates when n⁰·u₊ ≥ −SEPARATION_RTOL |u₋|: a plastic impact (e = 0) leaves
@@ -41,18 +43,20 @@ def friction_ratio(n0: NDArray[np.float64], P: NDArray[np.float64]) -> Any:
     reading μ from the contact impulse P is a choice, and the one made here.
     """
     pn = np.einsum("...d,...d->...", n0, P)
-    pt = np.linalg.norm(P - pn[..., None] * n0, axis=-1)
+    pt = np.asarray(scaled_norm(P - pn[..., None] * n0))
     return _out(np.divide(pt, pn, out=np.zeros_like(pn), where=pn > 0))
 
 
 def energy_loss(P: NDArray[np.float64], u_minus: NDArray[np.float64], u_plus: NDArray[np.float64]) -> Any:
     """T₋ − T₊ = −Pᵀ(u₋ + u₊)/2: the kinetic energy lost, computed in contact space without
-    the cancellation of two large energies (exact for any impulse: ΔT = Pᵀ(u₋ + u₊)/2)."""
-    return _out(-0.5 * np.einsum("...d,...d->...", P, u_minus + u_plus))
+    the cancellation of two large energies (exact for any impulse: ΔT = Pᵀ(u₋ + u₊)/2). Energies
+    beyond the float range (velocities above ~1e154) are ±inf."""
+    with np.errstate(over="ignore"):
+        return _out(-0.5 * np.einsum("...d,...d->...", P, u_minus + u_plus))
 
 
 def separates(n0: NDArray[np.float64], u_minus: NDArray[np.float64], u_plus: NDArray[np.float64]) -> Any:
     """Whether the contact point leaves the surface, n⁰·u₊ ≥ −:data:`SEPARATION_RTOL` |u₋|."""
     un = np.einsum("...d,...d->...", n0, u_plus)
-    ok = un >= -SEPARATION_RTOL * np.linalg.norm(u_minus, axis=-1)
+    ok = un >= -SEPARATION_RTOL * scaled_norm(u_minus)
     return bool(ok) if ok.ndim == 0 else ok

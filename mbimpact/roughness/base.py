@@ -157,7 +157,8 @@ def check_weights(name: str, weights: ArrayLike, count: int) -> NDArray[np.float
     w = as_array(name, weights, 1, (count,))
     if np.any(w < 0):
         raise RoughnessError(f"{name} must be non-negative; {name}[{int(np.argmin(w))}] is {w.min():.6g}")
-    total = float(w.sum())
-    if total <= 0.0:
+    big = float(w.max())
+    if big <= 0.0:
         raise RoughnessError(f"{name} are all zero; at least one facet must have positive weight")
-    return w / total
+    w = w / big  # scaled first: a sum of weights near the largest float would overflow
+    return w / float(w.sum())

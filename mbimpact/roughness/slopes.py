@@ -29,7 +29,7 @@ from ..quadrature.graded import graded_azimuth_rule, graded_tilt_rule, peak_tilt
 from ..quadrature.rules import azimuth_rule, gauss_legendre, tilt_segments
 from .base import Roughness, Rule
 
-__all__ = ["IsotropicSlopes", "GaussianSlopes"]
+__all__ = ["IsotropicSlopes", "GaussianSlopes", "GaussianTiltDensity"]
 
 # Points of the tabulated tilt CDF used to draw Monte Carlo samples.
 _CDF_POINTS = 4097
@@ -66,6 +66,8 @@ class IsotropicSlopes(Roughness):
             raise RoughnessError(f"dim must be 2 (planar) or 3 (spatial), got {self.dim}")
         if not callable(self.pdf):
             raise RoughnessError(f"pdf must be a callable density of the tilt, got {type(self.pdf).__name__}")
+        if not isinstance(self.support, (tuple, list)) or len(self.support) != 2:
+            raise RoughnessError(f"support must be an interval (lo, hi) of tilts within [0, π/2), got {self.support!r}")
         lo = as_scalar("support[0]", self.support[0], 0.0, math.pi / 2, hi_open=True)
         hi = as_scalar("support[1]", self.support[1], 0.0, math.pi / 2, hi_open=True)
         if not lo < hi:
@@ -182,21 +184,24 @@ def _planar_peak(W: NDArray[np.float64]) -> tuple[float, float, float]:
     return math.atan2(abs(float(w1[0])), float(w1[1])), (1.0 if w1[0] >= 0 else -1.0), width
 
 
-def _gaussian_pdf(sigma: float, dim: int) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    """Tilt density of a Gaussian slope field, per true area.
+@dataclass(frozen=True)
+class GaussianTiltDensity:
+    """Tilt density of a Gaussian slope field, per true area (a picklable callable).
 
     Slopes s = tan α are normal with RMS σ per component over the base plane; a
     facet of base area dA has true area dA / cos α, so the density of α is that of
     the slopes times sec α times ds/dα = sec²α.
     """
 
-    def pdf(alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+    sigma: float
+    dim: int
+
+    def __call__(self, alpha: NDArray[np.float64]) -> NDArray[np.float64]:
         t = np.tan(alpha)
         sec = 1.0 / np.cos(alpha)
-        radial = t if dim == 3 else 1.0  # Rayleigh |s| in 2-D slope space, half-normal in 1-D
-        return radial * np.exp(-0.5 * (t / sigma) ** 2) * sec**3
-
-    return pdf
+        radial = t if self.dim == 3 else 1.0  # Rayleigh |s| in 2-D slope space, half-normal in 1-D
+        with np.errstate(under="ignore"):  # far tails: exp(−x) below the smallest float is 0
+            return radial * np.exp(-0.5 * (t / self.sigma) ** 2) * sec**3
 
 
 class GaussianSlopes(IsotropicSlopes):
@@ -218,7 +223,7 @@ class GaussianSlopes(IsotropicSlopes):
             raise ParameterError("sigma must be > 0 (use Smooth() for a flat surface)")
         object.__setattr__(self, "sigma", sigma)
         top = math.atan(11.0 * sigma)  # density below exp(-60) beyond: negligible at rtol 1e-12
-        super().__init__(_gaussian_pdf(sigma, dim), dim, (0.0, min(top, math.pi / 2 * (1 - 1e-9))))
+        super().__init__(GaussianTiltDensity(sigma, dim), dim, (0.0, min(top, math.pi / 2 * (1 - 1e-9))))
 
     def __repr__(self) -> str:
         return f"GaussianSlopes(sigma={self.sigma:g}, dim={self.dim})"

@@ -7,12 +7,12 @@ in :mod:`.simulator`. :mod:`.section4` is the paper's application: a point bounc
 vibrating rough surface of revolution.
 """
 
-from .scene import PD, Scene, SceneContact, scene_names, scene_path
+from .scene import PD, Scene, SceneCollision, SceneContact, scene_names, scene_path
 from .schema import load_scene, reference
 from .simulator import simulate
 from .surfaces import Surface
 from .sweep import sweep
 from .trajectory import STATUSES, ContactEvent, ImpactRecord, Trajectory
 
-__all__ = ["Scene", "SceneContact", "PD", "Surface", "load_scene", "reference", "scene_names", "scene_path",
+__all__ = ["Scene", "SceneContact", "SceneCollision", "PD", "Surface", "load_scene", "reference", "scene_names", "scene_path",
            "simulate", "Trajectory", "ContactEvent", "ImpactRecord", "STATUSES", "sweep"]

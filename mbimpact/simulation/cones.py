@@ -87,17 +87,25 @@ class ConeSolver:
         solver, result = self._solvers[n]
         settings = self._settings
         previous = self._previous.get(mus)
-        result.setConstraintImpulseGuess(previous * (scale_G / scale_g) if warm and previous is not None
-                                         and previous.shape == (n,) else np.zeros(n))
-        # a fresh Delassus operator per solve: the solver leaves its damping in the one it is given
-        solver.solve(pin.DelassusOperatorDense(G / scale_G), g / scale_g, models, datas, settings, result)
-        lam = np.array(result.retrieveConstraintImpulses()) * (scale_g / scale_G)
-        if not result.converged or not np.all(np.isfinite(lam)):
-            # the solution is still checked below: ADMM's stopping test can be stricter than needed
+        guess = (previous * (scale_G / scale_g) if warm and previous is not None and previous.shape == (n,)
+                 else np.zeros(n))
+        # a rigid body resting on more than three points has a rank-deficient G (4 corners: rank 6 of 12);
+        # ADMM then converges slowly but surely: a second attempt gets ten times the iterations
+        for attempt, iterations in enumerate((self.max_iterations, 10 * self.max_iterations)):
+            settings.max_iterations = iterations
+            result.setConstraintImpulseGuess(guess)
+            # a fresh Delassus operator per solve: the solver leaves its damping in the one it is given
+            solver.solve(pin.DelassusOperatorDense(G / scale_G), g / scale_g, models, datas, settings, result)
+            lam = np.array(result.retrieveConstraintImpulses()) * (scale_g / scale_G)
+            if result.converged and np.all(np.isfinite(lam)):
+                break
+            # the solution is still checked: ADMM's stopping test can be stricter than needed
             sigma = G @ lam + g
             bad = max(float(-lam[2::3].min(initial=0.0)), float(-sigma[2::3].min(initial=0.0)) / scale_g * scale_G,
                       float(np.abs(lam[2::3] @ sigma[2::3])) / (scale_g * scale_g / scale_G))
-            if not np.all(np.isfinite(lam)) or bad > 1e-6:
+            if np.all(np.isfinite(lam)) and bad <= 1e-6:
+                break
+            if attempt == 1:
                 raise IntegrationError(f"the contact solver (Pinocchio ADMM) did not converge for {len(mus)} contacts "
                                        f"after {result.iterations} iterations (residual {bad:.3g})")
         self._previous[mus] = lam

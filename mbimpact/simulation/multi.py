@@ -7,7 +7,8 @@ unilateral contacts with Coulomb friction: if the impact pushes them into their 
 a plastic frictional impulse follows (Pinocchio's ADMM on their cones), and the two
 alternate until nothing approaches.
 
-Contacts that strike together have no unique outcome; the scene declares the rule:
+Contacts that strike together, or several points of one contact (a face landing flat),
+have no unique outcome; the scene declares the rule:
 
 ``"newton"``
     Newton's law at all of them at once: the normal impulses λᵢ ≥ 0 with
@@ -28,8 +29,8 @@ Contacts that strike together have no unique outcome; the scene declares the rul
     Each contact's own law, one contact at a time (the most approaching first), until
     none approaches.
 ``"auto"``
-    ``"rough"`` if a striking contact has a rough law, ``"sequential"`` if one has a
-    Coulomb law, else ``"newton"``.
+    ``"sequential"`` if a striking contact has a Coulomb law or a rough law with other than
+    Newton facets, else ``"rough"`` if one has a rough law, else ``"newton"``.
 """
 
 from __future__ import annotations
@@ -47,17 +48,18 @@ from ..laws.rough import RoughLaw
 from ..metric.basis import local_basis
 from ..metric.delassus import ContactMetric
 from .cones import ConeSolver
-from .kinematics import ContactState
+from .state import ContactState
 
 __all__ = ["Impulses", "ImpactSolver", "choose_rule"]
 
 
 @dataclass
 class Impulses:
-    """World contact impulses of the contacts that took part, and the velocity jump."""
+    """World impulses (3,) at the points that took part, by :attr:`ContactState.key`, and the
+    velocity jump (nv,)."""
 
     dv: NDArray[np.float64]
-    P: dict[int, NDArray[np.float64]]
+    P: dict[tuple[int, int], NDArray[np.float64]]
     rule: str
     error: float = 0.0
 
@@ -66,8 +68,9 @@ def choose_rule(rule: str, laws: list[ImpactLaw]) -> str:
     """The rule for a group of striking contacts (resolving ``"auto"``)."""
     if rule != "auto":
         return rule
-    if any(isinstance(law, CoulombLaw) for law in laws):
-        return "sequential"
+    if any(isinstance(law, CoulombLaw) or (isinstance(law, RoughLaw) and law.facet.newton_restitution is None)
+           for law in laws):
+        return "sequential"  # the facet realisations of the rough rule are Newton impacts
     if any(isinstance(law, RoughLaw) for law in laws):
         return "rough"
     return "newton"
@@ -106,12 +109,13 @@ class ImpactSolver:
         else:
             metric = ContactMetric(self.A, s.J, self.solve_A)
             P = law.impulses(metric, s.u[None, :], s.frame).P[0]
-        return Impulses(self.solve_A(s.J.T @ P), {s.index: P}, repr(law))
+        return Impulses(self.solve_A(s.J.T @ P), {s.key: P}, repr(law))
 
     # ------------------------------------------------------------------ cones
-    def cone_impulses(self, rows: list[tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                                               float, float]]) -> tuple[NDArray[np.float64], dict[int, NDArray[np.float64]]]:
-        """Impulses on Coulomb cones: rows of (index, frame R (3, 3), J (3, nv), relative u (3,), μ, e).
+    def cone_impulses(self, rows: list[tuple[tuple[int, int], NDArray[np.float64], NDArray[np.float64],
+                                               NDArray[np.float64], float, float]]
+                      ) -> tuple[NDArray[np.float64], dict[tuple[int, int], NDArray[np.float64]]]:
+        """Impulses on Coulomb cones: rows of (key, frame R (3, 3), J (3, nv), relative u (3,), μ, e).
 
         The normal free velocity is shifted by (1 + e) u_n (Newton's restitution); e = 0 is plastic.
         """
@@ -122,35 +126,38 @@ class ImpactSolver:
         g = np.concatenate([R.T @ u for _, R, _, u, _, _ in rows])
         g[2::3] *= 1.0 + np.array([e for *_, e in rows])
         lam = self.cones.solve(G, g, tuple(mu for *_, mu, _ in rows))
-        P = {i: R @ lam[3 * k: 3 * k + 3] for k, (i, R, *_rest) in enumerate(rows)}
+        P = {key: R @ lam[3 * k: 3 * k + 3] for k, (key, R, *_rest) in enumerate(rows)}
         return AinvJt @ lam, P
 
     def plastic(self, active: list[ContactState]) -> Impulses:
         """A plastic frictional impulse at persistent contacts pushed into their surfaces."""
-        dv, P = self.cone_impulses([(s.index, s.frame, s.J, s.u, self.frictions[s.index], 0.0) for s in active])
+        dv, P = self.cone_impulses([(s.key, s.frame, s.J, s.u, self.frictions[s.index], 0.0) for s in active])
         return Impulses(dv, P, "plastic frictional contact")
 
     # ------------------------------------------------------------------ several contacts
-    def newton(self, struck: list[ContactState], active: list[ContactState], normals: dict[int, NDArray[np.float64]]
-               | None = None) -> Impulses:
-        """Newton's law at the struck contacts at once (frictionless, along ``normals`` if given: facets),
-        persistent contacts plastic and frictional."""
+    def newton(self, struck: list[ContactState], active: list[ContactState],
+               normals: list[NDArray[np.float64]] | None = None) -> Impulses:
+        """Newton's law at the struck points at once (frictionless, along ``normals`` if given: facets,
+        one per struck point), persistent points plastic and frictional."""
         rows = []
-        for s in struck:
-            n = s.normal if normals is None else normals[s.index]
+        for k, s in enumerate(struck):
+            n = s.normal if normals is None else normals[k]
             R = s.frame if normals is None else local_basis(n, 3)
-            rows.append((s.index, R, s.J, s.u, 0.0, float(self.laws[s.index].e)))
-        rows += [(s.index, s.frame, s.J, s.u, self.frictions[s.index], 0.0) for s in active]
+            rows.append((s.key, R, s.J, s.u, 0.0, float(self.laws[s.index].e)))
+        rows += [(s.key, s.frame, s.J, s.u, self.frictions[s.index], 0.0) for s in active]
         dv, P = self.cone_impulses(rows)
         return Impulses(dv, P, "newton")
 
     def rough(self, struck: list[ContactState], active: list[ContactState]) -> Impulses:
         """The average of Newton's multi-contact law over independent facet realisations, weighted by
         the product of the physical fluxes (2.7)."""
-        facets = {}
+        facets = []
         for s in struck:
             law = self.laws[s.index]
             if isinstance(law, RoughLaw):
+                if law.facet.newton_restitution is None:
+                    raise SceneError(f"the 'rough' rule for contacts striking together realises Newton facets; contact "
+                                     f"{s.index} has {law.facet!r} facets: use simultaneous = 'sequential'")
                 if law.roughness.dim == 2:
                     raise SceneError("the 'rough' rule for contacts striking together needs spatial (3-D) roughness; "
                                      f"contact {s.index} has {law.roughness!r}")
@@ -158,15 +165,15 @@ class ImpactSolver:
                     m = law.roughness.sample(self.rng, self.samples)
                 except Exception as exc:  # a measure that cannot be sampled (shadowed relief)
                     raise SceneError(f"the 'rough' rule needs measures that can be sampled: {exc}") from exc
-                facets[s.index] = m @ s.frame.T  # world normals
+                facets.append(m @ s.frame.T)  # world normals
             else:
-                facets[s.index] = np.tile(s.normal, (self.samples, 1))
+                facets.append(np.tile(s.normal, (self.samples, 1)))
         jumps, weights, impulses = [], [], []
         for k in range(self.samples):
-            normals = {i: m[k] for i, m in facets.items()}
+            normals = [m[k] for m in facets]
             w = 1.0
-            for s in struck:
-                w *= max(0.0, -float(normals[s.index] @ s.u))
+            for s, n in zip(struck, normals):
+                w *= max(0.0, -float(n @ s.u))
             if w <= 0.0:
                 continue
             out = self.newton(struck, active, normals)

@@ -4,7 +4,16 @@ A scene is a :class:`Scene` object or a TOML file (:func:`mbimpact.load_scene`, 
 :mod:`mbimpact.simulation.schema`). Only what a scene declares is simulated
 (:func:`mbimpact.simulate`): no roughness means the Newton path, no gravity means no
 gravity terms, a fixed surface means no surface motion, no friction means no friction
-cone in persistent contact.
+cone in persistent contact, frame contacts mean no collision detection.
+
+Two kinds of contacts:
+
+* :class:`SceneContact` — a point fixed to a frame, striking a declared surface (plane,
+  paraboloid, moving or not);
+* :class:`SceneCollision` — a collision object of the mechanism (its URDF ``<collision>``
+  geometry) striking an obstacle shape or another of its collision objects: the gap is
+  coal's signed distance, the contact points are the witness points (whole contact patches
+  when a face or an edge lands), and they move over the body as it rolls.
 """
 
 from __future__ import annotations
@@ -19,11 +28,12 @@ from numpy.typing import NDArray
 
 from ..common.validation import as_array, as_count, as_scalar
 from ..errors import ImpactError, SceneError
+from ..geometry.shapes import Shape
 from ..laws.base import ImpactLaw
 from ..mechanism.mechanism import Mechanism
 from .surfaces import Surface
 
-__all__ = ["SceneContact", "Scene", "PD", "scene_names", "scene_path", "SIMULTANEOUS_RULES"]
+__all__ = ["SceneContact", "SceneCollision", "Scene", "PD", "scene_names", "scene_path", "SIMULTANEOUS_RULES"]
 
 #: Rules for contacts that strike together (:mod:`mbimpact.simulation.multi`).
 SIMULTANEOUS_RULES = ("auto", "newton", "rough", "compliant", "sequential")
@@ -79,6 +89,122 @@ class SceneContact:
             object.__setattr__(self, "tangent", t / np.linalg.norm(t))
 
 
+    @property
+    def label(self) -> str:
+        """The contact in messages and plots: its frame."""
+        return self.frame
+
+
+@dataclass(frozen=True, eq=False)
+class SceneCollision:
+    """Collision objects of the mechanism striking an obstacle, or each other.
+
+    The gap is the signed distance of the pair (coal), its normal points from the obstacle
+    (or ``other``) towards ``body``, and the contact points are the pair's witness points: one
+    for a sphere or a corner, the whole contact patch (within the scene's ``patch_tolerance``)
+    when an edge or a face lands. A rough law acts about the local normal at each point.
+
+    Parameters
+    ----------
+    body : str or sequence of str
+        Collision object(s) of the mechanism (:meth:`mbimpact.Mechanism.collision_names`), or
+        ``"all"``: every object that moves (with an obstacle) or every pair the mechanism allows
+        (with ``other="all"``: objects on different joints, not parent and child).
+    law : ImpactLaw
+    obstacle : Shape, optional
+        A world obstacle (:class:`mbimpact.HalfSpace`, ``Box``, ``Sphere``, ``Capsule``,
+        ``Cylinder``, ``Mesh``).
+    other : str, optional
+        Or another collision object of the mechanism (self-collision), or ``"all"``.
+    friction, tangent, stiffness
+        As for :class:`SceneContact`.
+
+    A :class:`Scene` expands every :class:`SceneCollision` into one per pair (``body`` and
+    ``other`` single names), each a contact of its own in the trajectory.
+    """
+
+    body: str | tuple[str, ...]
+    law: ImpactLaw
+    obstacle: Shape | None = None
+    other: str | None = None
+    friction: float = 0.0
+    tangent: NDArray[np.float64] | None = None
+    stiffness: float = 1e5
+
+    def __post_init__(self) -> None:
+        body = self.body
+        if isinstance(body, str):
+            pass
+        elif isinstance(body, (list, tuple)) and body and all(isinstance(b, str) for b in body):
+            object.__setattr__(self, "body", tuple(body))
+        else:
+            raise SceneError(f"a collision contact's body is a collision object name, a list of names or 'all'; "
+                             f"got {body!r}")
+        if not isinstance(self.law, ImpactLaw):
+            raise SceneError(f"a contact's law must be an impact law, got {type(self.law).__name__}")
+        if (self.obstacle is None) == (self.other is None):
+            raise SceneError("a collision contact needs exactly one of obstacle (a world shape) and other "
+                             "(a collision object of the mechanism, or 'all')")
+        if self.obstacle is not None and not isinstance(self.obstacle, Shape):
+            raise SceneError(f"obstacle must be a shape (HalfSpace, Box, Sphere, Capsule, Cylinder, Mesh), "
+                             f"got {type(self.obstacle).__name__}")
+        if self.other is not None and not isinstance(self.other, str):
+            raise SceneError(f"other must be a collision object name or 'all', got {self.other!r}")
+        if self.other is not None and self.other == self.body != "all":
+            raise SceneError(f"other must differ from body ({self.body!r}): an object does not strike itself")
+        object.__setattr__(self, "friction", as_scalar("friction", self.friction, 0.0, math.inf))
+        object.__setattr__(self, "stiffness", as_scalar("stiffness", self.stiffness, 0.0, math.inf, lo_open=True))
+        if self.tangent is not None:
+            t = as_array("tangent", self.tangent, 1, (3,))
+            if not np.linalg.norm(t) > 1e-9:
+                raise SceneError("a contact's tangent must not be the zero vector")
+            object.__setattr__(self, "tangent", t / np.linalg.norm(t))
+
+    @property
+    def concrete(self) -> bool:
+        """One pair: ``body`` and ``other`` are single names (not lists, not "all")."""
+        return isinstance(self.body, str) and self.body != "all" and self.other != "all"
+
+    @property
+    def label(self) -> str:
+        """The pair in messages and plots: ``body | obstacle`` or ``body | other``."""
+        body = self.body if isinstance(self.body, str) else ",".join(self.body)
+        other = self.obstacle.label if self.obstacle is not None else self.other
+        return f"{body} | {other}"
+
+    def pairs(self, mech: Mechanism) -> list[SceneCollision]:
+        """One concrete :class:`SceneCollision` per pair on ``mech`` ("all" and lists expanded).
+
+        Raises
+        ------
+        CollisionNotFoundError
+            A name that is not a collision object of ``mech``.
+        SceneError
+            "all" finds no pair.
+        """
+        from dataclasses import replace
+
+        from ..geometry.queries import gap_model
+
+        cm = mech.collision_model()
+        names = self.body if isinstance(self.body, tuple) else (self.body,)
+        if self.obstacle is not None:
+            bodies = cm.moving if names == ("all",) else [cm.names[cm.index(n)] for n in names]
+            out = [replace(self, body=b) for b in bodies]
+        else:
+            if self.other == "all":
+                allowed = gap_model(mech, self_pairs="all").pairs if len(cm) > 1 else ()
+                out = [replace(self, body=a, other=b) for a, b in allowed
+                       if names == ("all",) or a in names or b in names]
+            else:
+                cm.index(self.other)  # type: ignore[arg-type]
+                out = [replace(self, body=cm.names[cm.index(n)]) for n in
+                       (cm.moving if names == ("all",) else names) if n != self.other]
+        if not out:
+            raise SceneError(f"the collision contact {self.label} has no pair on {mech.name}")
+        return out
+
+
 @dataclass(frozen=True, eq=False)
 class PD:
     """Joint-space PD torques τ = kp (q_ref − q) − kd v on the actuated joints (a declared force).
@@ -105,7 +231,8 @@ class Scene:
     mechanism : Mechanism
     q0, v0 : ndarray, shapes (nq,), (nv,)
         Initial state; no contact point may start inside its surface (deeper than ``tolerance``).
-    contacts : tuple of SceneContact
+    contacts : tuple of SceneContact or SceneCollision
+        Collision contacts are expanded to one per pair (see :class:`SceneCollision`).
     gravity : bool
     damping : float
         Joint damping τ = −damping · v.
@@ -129,6 +256,9 @@ class Scene:
         Relative tolerance of the free-flight integration (DOP853).
     tolerance : float
         Penetration tolerated [m]: gaps are never reported below −tolerance.
+    patch_tolerance : float
+        Witness points of a collision pair within this distance [m] of its nearest point strike
+        or rest together (a face landing flat strikes at its corners at once).
     simultaneous : {"auto", "newton", "rough", "compliant", "sequential"}
         Rule for contacts that strike together (:mod:`mbimpact.simulation.multi`).
     max_impacts : int
@@ -148,7 +278,7 @@ class Scene:
     mechanism: Mechanism
     q0: NDArray[np.float64]
     v0: NDArray[np.float64]
-    contacts: tuple[SceneContact, ...]
+    contacts: tuple[SceneContact | SceneCollision, ...]
     gravity: bool = True
     damping: float = 0.0
     torque: NDArray[np.float64] | None = None
@@ -159,6 +289,7 @@ class Scene:
     chatter_time: float | None = None
     rtol: float = 1e-10
     tolerance: float = 1e-8
+    patch_tolerance: float = 1e-6
     simultaneous: Literal["auto", "newton", "rough", "compliant", "sequential"] = "auto"
     max_impacts: int = 100_000
     max_events_per_second: float = 1e5
@@ -180,10 +311,27 @@ class Scene:
         contacts = tuple(self.contacts)
         if not contacts:
             raise SceneError("a scene needs at least one contact")
+        expanded: list[SceneContact | SceneCollision] = []
         for i, c in enumerate(contacts):
-            if not isinstance(c, SceneContact):
-                raise SceneError(f"contacts[{i}] must be a SceneContact, got {type(c).__name__}")
-            mech.frame_id(c.frame)
+            if isinstance(c, SceneContact):
+                mech.frame_id(c.frame)
+                expanded.append(c)
+            elif isinstance(c, SceneCollision):
+                try:
+                    expanded += c.pairs(mech)
+                except ImpactError as exc:
+                    raise SceneError(f"contacts[{i}] ({c.label}): {exc}") from exc
+            else:
+                raise SceneError(f"contacts[{i}] must be a SceneContact or a SceneCollision, got {type(c).__name__}")
+        seen: dict[tuple[str, int | str], int] = {}
+        for i, c in enumerate(expanded):
+            if isinstance(c, SceneCollision):
+                key = (str(c.body), id(c.obstacle) if c.obstacle is not None else str(c.other))
+                twin = seen.get(key, seen.get((str(c.other), str(c.body))))
+                if twin is not None:
+                    raise SceneError(f"the pair {c.label} is declared twice (contacts {twin} and {i} after expansion)")
+                seen[key] = i
+        contacts = tuple(expanded)
         object.__setattr__(self, "contacts", contacts)
         if not isinstance(self.gravity, bool):
             raise SceneError(f"gravity must be true or false, got {self.gravity!r}")
@@ -196,7 +344,8 @@ class Scene:
             if self.pd.q_ref.shape != (mech.nq,):
                 raise SceneError(f"pd.q_ref must have {mech.nq} entries, got {self.pd.q_ref.shape[0]}")
         for name, lo, lo_open in (("duration", 0.0, True), ("rest_velocity", 0.0, False), ("contact_step", 0.0, True),
-                                  ("tolerance", 0.0, True), ("max_events_per_second", 0.0, True),
+                                  ("tolerance", 0.0, True), ("patch_tolerance", 0.0, True),
+                                  ("max_events_per_second", 0.0, True),
                                   ("max_wall_time", 0.0, True)):
             object.__setattr__(self, name, as_scalar(name, getattr(self, name), lo, math.inf, lo_open=lo_open))
         object.__setattr__(self, "rtol", as_scalar("rtol", self.rtol, 1e-14, 1e-3))
@@ -219,13 +368,28 @@ class Scene:
         """A start inside a surface is an error (rule documented in the schema)."""
         mech = self.mechanism
         for i, c in enumerate(self.contacts):
-            p = mech.frame_position(self.q0, c.frame, c.point)
-            f = c.surface.gap(p, 0.0)
+            if isinstance(c, SceneContact):
+                f = c.surface.gap(mech.frame_position(self.q0, c.frame, c.point), 0.0)
+                what = "its surface"
+            else:
+                f = collision_gap(mech, c, self.q0)
+                what = "what it strikes"
             if f < -self.tolerance:
                 raise SceneError(
-                    f"contacts[{i}] ({c.frame}) starts {-f:.3g} m inside its surface; start every contact point "
+                    f"contacts[{i}] ({c.label}) starts {-f:.3g} m inside {what}; start every contact "
                     f"outside or on it (gap ≥ −tolerance = {-self.tolerance:g} m)"
                 )
+
+
+def collision_gap(mech: Mechanism, c: SceneCollision, q: NDArray[np.float64]) -> float:
+    """Signed distance of one concrete collision pair at q."""
+    from ..geometry.queries import gap_model
+
+    if c.obstacle is not None:
+        gm = gap_model(mech, (c.obstacle,), bodies=(str(c.body),))
+    else:
+        gm = gap_model(mech, self_pairs=((str(c.body), str(c.other)),))
+    return float(gm.distances(q)[0])
 
 
 def scene_names() -> list[str]:

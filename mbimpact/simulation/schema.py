@@ -18,13 +18,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import ImpactError, SceneError
+from ..facets import FacetLaw, facet_law
+from ..geometry.shapes import Box, Capsule, Cylinder, HalfSpace, Mesh, Shape, Sphere
 from ..laws.base import ImpactLaw
 from ..laws.coulomb import CoulombLaw
 from ..laws.newton import NewtonLaw
 from ..laws.rough import RoughLaw
 from ..mechanism.mechanism import Mechanism
 from ..roughness import Cone, GaussianSlopes, Roughness, Sawtooth, Smooth
-from .scene import PD, SIMULTANEOUS_RULES, Scene, SceneContact, scene_path
+from .scene import PD, SIMULTANEOUS_RULES, Scene, SceneCollision, SceneContact, scene_path
 from .surfaces import Surface
 
 __all__ = ["SCHEMA", "load_scene", "reference"]
@@ -66,8 +68,17 @@ _ROUGHNESS = _table("facet measure of the rough law", {
     "dim": {"enum": [2, 3], "description": "gaussian: 3 spatial (default), 2 planar"},
 }, ("kind",))
 
-_CONTACT = _table("a point of the mechanism, the surface it strikes and its laws", {
-    "frame": {"type": "string", "description": "frame the contact point is attached to (required)"},
+#: Keys of a frame contact that a collision contact does not have, and the other way round.
+FRAME_KEYS = ("frame", "point", "surface", "normal", "origin", "rho", "motion")
+COLLISION_KEYS = ("body", "obstacle", "other")
+
+_CONTACT = _table("a contact: a frame's point on a surface (frame = ...), or a collision object of the mechanism "
+                  "against an obstacle or another of its objects (body = ...); its laws", {
+    "frame": {"type": "string", "description": "frame the contact point is attached to"},
+    "body": {"anyOf": [{"type": "string"}, {"type": "array", "items": {"type": "string"}, "minItems": 1}],
+             "description": "instead of frame: collision object(s) of the mechanism, or \"all\""},
+    "obstacle": {"type": "string", "description": "with body: the name of an [[obstacles]] table"},
+    "other": {"type": "string", "description": "with body: another collision object, or \"all\" (self-collision)"},
     "point": _vec("offset of the point from the frame origin, frame axes [m]", 3, [0, 0, 0]),
     "surface": {"enum": ["plane", "paraboloid"], "description": "the surface", "default": "plane"},
     "normal": _vec("unit normal of the surface (normalised), out of it", 3, [0, 0, 1]),
@@ -81,6 +92,14 @@ _CONTACT = _table("a point of the mechanism, the surface it strikes and its laws
     "roughness": _ROUGHNESS,
     "flux": {"enum": ["physical", "configuration"], "description": "rough law: facet weight of (2.7)",
              "default": "physical"},
+    "facet": _table("rough law: the impact on one facet (default Newton's with e)", {
+        "kind": {"enum": ["newton", "coulomb", "compliant", "hunt-crossley"], "description": "the facet law"},
+        "mu": _num("coulomb, compliant: friction coefficient on the facet, ≥ 0", 0.0),
+        "restitution": {"enum": ["newton", "poisson", "energetic"],
+                        "description": "coulomb: restitution hypothesis", "default": "energetic"},
+        "stiffness_ratio": _num("compliant: tangential to normal stiffness ratio, > 0", 0.0, exclusive=True),
+        "alpha": _num("hunt-crossley: damping [s/m], e(v) ≈ 1 − α v (no e then)", 0.0, exclusive=True),
+    }, ("kind",)),
     "mu": _num("coulomb law: friction coefficient of the impact, ≥ 0", 0.0),
     "restitution": {"enum": ["newton", "poisson", "energetic"], "description": "coulomb law: restitution hypothesis",
                     "default": "energetic"},
@@ -92,7 +111,28 @@ _CONTACT = _table("a point of the mechanism, the surface it strikes and its laws
         "frequency": _num("f [Hz], ≥ 0", 0.0, default=0.0),
         "phase": _num("φ [rad]", default=0.0),
     }),
-}, ("frame",))
+})
+
+_OBSTACLE = _table("a world obstacle for collision contacts", {
+    "name": {"type": "string", "description": "its name, used by contacts' obstacle = ... (required)"},
+    "shape": {"enum": ["halfspace", "box", "sphere", "capsule", "cylinder", "mesh"], "description": "the shape"},
+    "normal": _vec("halfspace: outward unit normal (normalised)", 3, [0, 0, 1]),
+    "offset": _num("halfspace: the solid is n·x ≤ offset [m]", default=0.0),
+    "size": _vec("box: full side lengths [m], > 0", 3),
+    "radius": _num("sphere, capsule, cylinder: radius [m], > 0", 0.0, exclusive=True),
+    "length": _num("capsule, cylinder: full length of the axis (local z) [m], > 0", 0.0, exclusive=True),
+    "path": {"type": "string", "description": "mesh: the file, relative to the scene file"},
+    "scale": _num("mesh: scale of the file's coordinates, > 0", 0.0, exclusive=True, default=1.0),
+    "position": _vec("centre [m] (not for a halfspace)", 3, [0, 0, 0]),
+    "rpy": _vec("orientation as roll, pitch, yaw [rad] (not for a halfspace)", 3, [0, 0, 0]),
+}, ("name", "shape"))
+
+#: Keys each obstacle shape takes (besides name and shape).
+SHAPE_KEYS = {"halfspace": {"normal", "offset"}, "box": {"size", "position", "rpy"},
+              "sphere": {"radius", "position", "rpy"}, "capsule": {"radius", "length", "position", "rpy"},
+              "cylinder": {"radius", "length", "position", "rpy"}, "mesh": {"path", "scale", "position", "rpy"}}
+SHAPE_NEEDS = {"halfspace": set(), "box": {"size"}, "sphere": {"radius"}, "capsule": {"radius", "length"},
+               "cylinder": {"radius", "length"}, "mesh": {"path"}}
 
 #: The JSON Schema of a scene file (plus the keyword ``finite``: no NaN or infinity).
 SCHEMA: dict[str, Any] = _table("a scene", {
@@ -108,6 +148,7 @@ SCHEMA: dict[str, Any] = _table("a scene", {
         "posture": {"enum": ["neutral"], "description": "instead of q: the neutral configuration", "default": "neutral"},
         "v": _vec("velocity (nv entries)", default="zeros"),
     }),
+    "obstacles": {"type": "array", "items": _OBSTACLE, "description": "[[obstacles]] tables: world shapes"},
     "contacts": {"type": "array", "minItems": 1, "items": _CONTACT, "description": "[[contacts]] tables, at least one"},
     "forces": _table("the forces present, and only those", {
         "gravity": {"type": "boolean", "description": "gravity along −z", "default": True},
@@ -129,6 +170,8 @@ SCHEMA: dict[str, Any] = _table("a scene", {
                              "10 contact steps)", 0.0),
         "rtol": _num("relative tolerance of the free flight, 1e-14 … 1e-3", 1e-14, 1e-3, default=1e-10),
         "tolerance": _num("penetration tolerated [m], > 0", 0.0, exclusive=True, default=1e-8),
+        "patch_tolerance": _num("collision contacts: witness points this close [m] to the nearest one strike or "
+                                "rest together (a face landing flat), > 0", 0.0, exclusive=True, default=1e-6),
         "simultaneous": {"enum": list(SIMULTANEOUS_RULES), "description": "rule for contacts striking together",
                          "default": "auto"},
         "samples": {"type": "integer", "minimum": 2, "description": "facet realisations of the rough rule",
@@ -162,8 +205,8 @@ def _line(text: str, path: list[Any]) -> str:
     lines = text.splitlines()
     start, table = 0, ""
     keys = [p for p in path if isinstance(p, str)]
-    if path and path[0] == "contacts" and len(path) > 1 and isinstance(path[1], int):
-        headers = [i for i, ln in enumerate(lines) if ln.strip().startswith("[[contacts]]")]
+    if path and path[0] in ("contacts", "obstacles") and len(path) > 1 and isinstance(path[1], int):
+        headers = [i for i, ln in enumerate(lines) if ln.strip().startswith(f"[[{path[0]}]]")]
         if path[1] < len(headers):
             start = headers[path[1]]
             stop = headers[path[1] + 1] if path[1] + 1 < len(headers) else len(lines)
@@ -259,16 +302,39 @@ class _Reader:
         except ImpactError as exc:
             raise self.fail(path, str(exc)) from exc
 
+    def facet(self, spec: dict[str, Any], e: float | None, path: list[Any]) -> FacetLaw:
+        kind = spec["kind"]
+        needs = {"newton": set(), "coulomb": {"mu"}, "compliant": {"mu", "stiffness_ratio"},
+                 "hunt-crossley": {"alpha"}}[kind]
+        allowed = needs | ({"restitution"} if kind == "coulomb" else set()) | {"kind"}
+        for key in sorted(set(spec) - allowed):
+            raise self.fail(path + [key], f"does not apply to a {kind} facet (keys for it: {', '.join(sorted(allowed))})")
+        for key in sorted(needs - set(spec)):
+            raise self.fail(path, f"a {kind} facet needs {key}")
+        params = {k: v for k, v in spec.items() if k != "kind"}
+        if kind != "hunt-crossley":
+            params["e"] = e
+        try:
+            return facet_law(kind, **params)
+        except ImpactError as exc:
+            raise self.fail(path, str(exc)) from exc
+
     def law(self, c: dict[str, Any], path: list[Any]) -> ImpactLaw:
         kind = c.get("law", "rough" if "roughness" in c else "newton")
-        if ("e" in c) == ("k" in c):
+        speed_law = c.get("facet", {}).get("kind") == "hunt-crossley"
+        if speed_law and ("e" in c or "k" in c):
+            raise self.fail(path + ["e" if "e" in c else "k"], "a hunt-crossley facet has no e or k: its restitution "
+                                                                "e(v) ≈ 1 − α v follows from alpha")
+        if not speed_law and ("e" in c) == ("k" in c):
             raise self.fail(path + ["e"], "give exactly one of e (restitution) or k (Kelvin–Voigt damping ratio)")
-        own = {"newton": set(), "rough": {"roughness", "flux"}, "coulomb": {"mu", "restitution"}}
+        if "facet" in c and "k" in c:
+            raise self.fail(path + ["k"], "a facet law takes e, not k")
+        own = {"newton": set(), "rough": {"roughness", "flux", "facet"}, "coulomb": {"mu", "restitution"}}
         for other, keys in own.items():
             if other != kind:
                 for key in sorted(keys & set(c)):
                     raise self.fail(path + [key], f"does not apply to law = {kind!r} (it belongs to law = {other!r})")
-        restitution = {"e": c["e"]} if "e" in c else {"k": c["k"]}
+        restitution = {"e": c["e"]} if "e" in c else {"k": c["k"]} if "k" in c else {}
         try:
             if kind == "newton":
                 return NewtonLaw(**restitution)
@@ -277,6 +343,9 @@ class _Reader:
                     raise self.fail(path + ["law"], "law = 'rough' needs a roughness table, e.g. "
                                                     "roughness = { kind = \"cone\", alpha = 0.2 }")
                 rough = self.roughness(c["roughness"], path + ["roughness"])
+                if "facet" in c:
+                    facet = self.facet(c["facet"], c.get("e"), path + ["facet"])
+                    return RoughLaw(rough, facet=facet, flux=c.get("flux", "physical"), repeat=True)
                 return RoughLaw(rough, flux=c.get("flux", "physical"), repeat=True, **restitution)
             if "mu" not in c:
                 raise self.fail(path + ["law"], "law = 'coulomb' needs mu, the friction coefficient of the impact")
@@ -286,8 +355,57 @@ class _Reader:
         except ImpactError as exc:
             raise self.fail(path, str(exc)) from exc
 
-    def contact(self, c: dict[str, Any], i: int, mech: Mechanism) -> SceneContact:
+    def obstacles(self, items: list[dict[str, Any]], base: Path) -> dict[str, Shape]:
+        """The [[obstacles]] tables as shapes, by name."""
+        out: dict[str, Shape] = {}
+        for i, o in enumerate(items):
+            path: list[Any] = ["obstacles", i]
+            kind = o["shape"]
+            for key in sorted(set(o) - SHAPE_KEYS[kind] - {"name", "shape"}):
+                raise self.fail(path + [key], f"does not apply to shape = {kind!r} (its keys: "
+                                              f"{', '.join(sorted(SHAPE_KEYS[kind]))})")
+            for key in sorted(SHAPE_NEEDS[kind] - set(o)):
+                raise self.fail(path + ["shape"], f"a {kind} needs {key}")
+            if o["name"] in out:
+                raise self.fail(path + ["name"], f"obstacle {o['name']!r} is declared twice")
+            pose: dict[str, Any] = {}
+            if kind != "halfspace":
+                import pinocchio as pin
+
+                pose = {"position": np.array(o.get("position", [0.0, 0.0, 0.0])),
+                        "rotation": pin.rpy.rpyToMatrix(np.array(o.get("rpy", [0.0, 0.0, 0.0]), dtype=float))}
+            try:
+                if kind == "halfspace":
+                    shape: Shape = HalfSpace(np.array(o.get("normal", [0.0, 0.0, 1.0])), o.get("offset", 0.0),
+                                             name=o["name"])
+                elif kind == "box":
+                    shape = Box(np.array(o["size"]), name=o["name"], **pose)
+                elif kind == "sphere":
+                    shape = Sphere(o["radius"], name=o["name"], **pose)
+                elif kind == "capsule":
+                    shape = Capsule(o["radius"], o["length"], name=o["name"], **pose)
+                elif kind == "cylinder":
+                    shape = Cylinder(o["radius"], o["length"], name=o["name"], **pose)
+                else:
+                    mesh = Path(o["path"])
+                    shape = Mesh(mesh if mesh.is_absolute() else base / mesh, o.get("scale", 1.0), name=o["name"],
+                                 **pose)
+            except ImpactError as exc:
+                raise self.fail(path, str(exc)) from exc
+            out[o["name"]] = shape
+        return out
+
+    def contact(self, c: dict[str, Any], i: int, mech: Mechanism, obstacles: dict[str, Shape]
+                ) -> SceneContact | SceneCollision:
         path: list[Any] = ["contacts", i]
+        if ("frame" in c) == ("body" in c):
+            raise self.fail(path, "a contact needs exactly one of frame (a point on a surface) or body (a collision "
+                                  "object against an obstacle or another object)")
+        if "body" in c:
+            return self.collision(c, path, mech, obstacles)
+        for key in COLLISION_KEYS[1:]:
+            if key in c:
+                raise self.fail(path + [key], "applies to collision contacts (body = ...) only")
         try:
             mech.frame_id(c["frame"])
         except ImpactError as exc:
@@ -311,6 +429,36 @@ class _Reader:
             raise self.fail(path, str(exc)) from exc
         except ImpactError as exc:
             raise self.fail(path, str(exc)) from exc
+
+    def collision(self, c: dict[str, Any], path: list[Any], mech: Mechanism, obstacles: dict[str, Shape]
+                  ) -> SceneCollision:
+        for key in FRAME_KEYS[1:]:
+            if key in c:
+                raise self.fail(path + [key], "applies to frame contacts (frame = ...) only; a collision contact's "
+                                              "surface is its obstacle")
+        if ("obstacle" in c) == ("other" in c):
+            raise self.fail(path + ["body"], "a collision contact needs exactly one of obstacle (an [[obstacles]] "
+                                             "name) or other (a collision object, or \"all\")")
+        obstacle = None
+        if "obstacle" in c:
+            obstacle = obstacles.get(c["obstacle"])
+            if obstacle is None:
+                close = difflib.get_close_matches(c["obstacle"], list(obstacles), n=1, cutoff=0.6)
+                raise self.fail(path + ["obstacle"], f"no obstacle {c['obstacle']!r}" + (
+                    f" (did you mean {close[0]!r}?)" if close else "") + (
+                    f"; obstacles: {', '.join(obstacles)}" if obstacles else "; declare it in an [[obstacles]] table"))
+        body = c["body"] if isinstance(c["body"], str) else tuple(c["body"])
+        try:
+            out = SceneCollision(body, self.law(c, path), obstacle, c.get("other"), c.get("friction", 0.0),
+                                 np.array(c["tangent"]) if "tangent" in c else None, c.get("stiffness", 1e5))
+            out.pairs(mech)  # the names exist
+            return out
+        except SceneError as exc:
+            if str(exc).startswith(self.source):
+                raise
+            raise self.fail(path + ["body"], str(exc)) from exc
+        except ImpactError as exc:
+            raise self.fail(path + ["body"], str(exc)) from exc
 
 
 def load_scene(source: str | Path) -> Scene:
@@ -352,7 +500,8 @@ def load_scene(source: str | Path) -> Scene:
     for key, vec, size in (("q", q0, mech.nq), ("v", v0, mech.nv)):
         if vec.shape != (size,):
             raise r.fail(["initial", key], f"must have {size} entries for {mech.name}, got {vec.shape[0]}")
-    contacts = tuple(r.contact(c, i, mech) for i, c in enumerate(doc["contacts"]))
+    obstacles = r.obstacles(doc.get("obstacles", []), path.parent)
+    contacts = tuple(r.contact(c, i, mech, obstacles) for i, c in enumerate(doc["contacts"]))
     forces = doc.get("forces", {})
     torque = forces.get("torque")
     if torque is not None and len(torque) != mech.nv:
@@ -371,7 +520,8 @@ def load_scene(source: str | Path) -> Scene:
             torque=None if torque is None else np.array(torque, dtype=float), pd=pd,
             duration=sim.get("duration", 1.0), rest_velocity=sim.get("rest_velocity", 1e-3),
             contact_step=sim.get("contact_step", 1e-3), chatter_time=sim.get("chatter_time"), rtol=sim.get("rtol", 1e-10),
-            tolerance=sim.get("tolerance", 1e-8), simultaneous=sim.get("simultaneous", "auto"),
+            tolerance=sim.get("tolerance", 1e-8), patch_tolerance=sim.get("patch_tolerance", 1e-6),
+            simultaneous=sim.get("simultaneous", "auto"),
             max_impacts=sim.get("max_impacts", 100_000), max_events_per_second=sim.get("max_events_per_second", 1e5),
             max_wall_time=sim.get("max_wall_time", 600.0), samples=sim.get("samples", 256),
             record=tuple(doc.get("record", {}).get("states", ())), name=doc.get("name", path.stem),
@@ -392,7 +542,9 @@ def reference() -> str:
     """The complete scene-file reference, generated from :data:`SCHEMA` (``mbimpact scene --help``)."""
     out = ["Scene files are TOML. Every key is checked: unknown keys, wrong types, NaN or infinite numbers,",
            "values out of range and contradictory keys are errors naming the key and its line.",
-           "A contact point may not start inside its surface (deeper than [simulation] tolerance).", ""]
+           "A contact point may not start inside its surface (deeper than [simulation] tolerance).",
+           "A contact is either a frame's point on a surface (frame = ...) or a collision object of the",
+           "mechanism (body = ..., its <collision> geometry) against an [[obstacles]] shape or another object.", ""]
 
     def describe(schema: dict[str, Any]) -> str:
         bits = [schema.get("description", "")]
@@ -422,11 +574,14 @@ def reference() -> str:
     for name, schema in SCHEMA["properties"].items():
         if name == "name":
             continue
-        if name == "contacts":
+        if name in ("contacts", "obstacles"):
             table(name, schema["items"], array=True)
         else:
             table(name, schema)
     out.append("Contradictions that are errors: more than one of robot/model/urdf; q with posture; e with k;")
     out.append("a roughness or flux with law = \"newton\" or \"coulomb\"; mu or restitution without law = \"coulomb\";")
-    out.append("law = \"rough\" without a roughness; rho on a plane; a paraboloid without rho.")
+    out.append("law = \"rough\" without a roughness; rho on a plane; a paraboloid without rho; frame with body;")
+    out.append("a facet with law other than \"rough\"; e or k with a hunt-crossley facet; k with a facet;")
+    out.append("surface keys (point, surface, normal, origin, rho, motion) on a body contact; obstacle with other;")
+    out.append("an obstacle key its shape does not take.")
     return "\n".join(out)

@@ -42,6 +42,11 @@ class ContactEvent:
         The law or multi-contact rule that produced it.
     group : int
         Number of contacts that struck together (1: a single impact).
+    points : int
+        Number of this contact's points that struck (a collision pair's face or edge: several).
+    point : ndarray, shape (3,), optional
+        Impacts: where the contact's most approaching point struck, world frame [m] (a collision
+        pair's witness point on the body).
     """
 
     t: float
@@ -57,6 +62,8 @@ class ContactEvent:
     energy_loss: float = 0.0
     rule: str = ""
     group: int = 1
+    points: int = 1
+    point: NDArray[np.float64] | None = None
 
     @property
     def rest(self) -> bool:

@@ -46,3 +46,12 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     errs = [float(r["error"]) for r in sorted(comp, key=lambda r: float(r["param"]))]
     assert errs == sorted(errs, reverse=True) and errs[-1] < 1e-4  # O(1/M) towards the closed law
     assert all(float(r["ratio"]) > 1e3 for r in comp)  # against the batched closed law
+
+    geo = [r for r in rows if r["part"] == "geometry"]
+    assert {r["case"].split(" (")[0] for r in geo} == {"box", "solo12", "ur5"}
+    for r in geo:  # a distance per pair is a small fraction of one rough impact
+        if r["method"].startswith("distances"):
+            assert 0 < float(r["ratio"]) < 0.2
+    scenes = [r for r in rows if r["part"] == "scenes"]
+    assert len(scenes) == 4 and all(r["method"] == "mbimpact (completed)" for r in scenes)
+    assert all(float(r["error"]) <= 1e-8 and float(r["ratio"]) > 0 for r in scenes)

@@ -55,6 +55,16 @@ def line_of(text, needle):
     ("", "[record]\nstates = [\"x3\"]", r"record\.states\[0\].*does not match"),
     ("", "[forces]\ntorque = [1.0]", r"forces\.torque \(line 11\): must have 3 entries"),
     ("", "[forcez]\ngravity = true", r"forcez \(line 10\): unknown key 'forcez' \(did you mean 'forces'\?\)"),
+    ("roughness = { kind = \"cone\", alpha = 0.2 }\nfacet = { kind = \"coulomb\" }", "",
+     r"contacts\[0\]\.facet \(line 10\): a coulomb facet needs mu"),
+    ("roughness = { kind = \"cone\", alpha = 0.2 }\nfacet = { kind = \"coulomb\", mu = 0.2, alpha = 1.0 }", "",
+     r"contacts\[0\]\.facet\.alpha \(line 10\): does not apply to a coulomb facet"),
+    ("law = \"newton\"\nfacet = { kind = \"coulomb\", mu = 0.2 }", "",
+     r"contacts\[0\]\.facet \(line 10\): does not apply to law = 'newton'"),
+    ("roughness = { kind = \"cone\", alpha = 0.2 }\nfacet = { kind = \"hunt-crossley\", alpha = 0.1 }", "",
+     r"contacts\[0\]\.e \(line 8\): a hunt-crossley facet has no e or k"),
+    ("roughness = { kind = \"cone\", alpha = 0.2 }\nfacet = { kind = \"stronge\" }", "",
+     r"contacts\[0\]\.facet\.kind.*must be one of 'newton', 'coulomb'"),
 ])
 def test_mistakes_are_errors_naming_key_and_line(tmp_path, contact, tables, match):
     with pytest.raises(mbi.SceneError, match=match):
@@ -127,3 +137,12 @@ def test_scene_command_checks_a_file(capsys, tmp_path):
     path.write_text(BASE.format(contact="", tables="[simulation]\nduraton = 2.0"))
     assert main(["scene", str(path)]) == 2
     assert "duraton" in capsys.readouterr().err
+
+
+def test_facet_laws_in_scene_files(tmp_path):
+    scene = load(tmp_path, "roughness = { kind = \"cone\", alpha = 0.2 }\nfacet = { kind = \"coulomb\", mu = 0.2 }")
+    law = scene.contacts[0].law
+    assert isinstance(law, mbi.RoughLaw) and law.facet == mbi.CoulombFacet(0.5, 0.2) and law.repeat
+    tr = mbi.simulate(scene)
+    hit = next(e for e in tr.events if e.kind == "impact")
+    assert tr.status == "completed" and "CoulombFacet" in hit.rule and hit.kappa > 0

@@ -66,7 +66,8 @@ def test_ball_on_rough_plane_rests_then_slides_to_a_stop_at_mu_g():
 def test_ball_on_vibrating_plate_stays_on_the_period_one_orbit():
     tr = run("ball_on_vibrating_plate")
     impacts = [x for x in tr.events if x.kind == "impact"]
-    assert len(impacts) == 20  # at t = 0.2 k, k = 1 … 20
+    # at t = 0.2 k, k = 1 … 19, and the one at k = 20 if rounding puts it before the end (t = 4)
+    assert len([x for x in impacts if x.t < 4.0 - 1e-9]) == 19 and len(impacts) in (19, 20)
     np.testing.assert_allclose(np.diff([x.t for x in impacts]), 0.2, rtol=1e-8)
     np.testing.assert_allclose([x.un_plus for x in impacts], 0.981 * (1 - 1 / 3), rtol=1e-7)  # V − ȧ, ȧ = V(1−e)/(1+e)
 

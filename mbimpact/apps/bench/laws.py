@@ -1,87 +1,38 @@
-"""``mbimpact bench``: what accuracy costs in time.
+"""Bench of the impact laws: accuracy against time, cost against Pinocchio, batches, the compliant route.
 
-Three measurements, all taken in the same run so that ratios are meaningful:
-
-1. ``accuracy`` — error against a converged reference vs wall time per impact
-   for each way of averaging (2.8) over a cone of facets: the corrected closed
-   form (2.10) where it exists, the exact-arc quadrature at several node counts,
-   uniform azimuth sampling (G* by indicator), and Monte Carlo; then Gaussian
-   slopes at a near-singular posture (graded quadrature vs Monte Carlo).
-2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of
-   the frame Jacobian plus ``pin.impulseDynamics`` at the same q, v; beside it the
-   Pinocchio calls alone and the floor of validating q, v and building the result.
-3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of
-   increasing size and for several node counts.
-4. ``compliant`` — error of the impact resolved in time (:func:`mbimpact.resolve`)
-   against the closed facet law, and its cost, for M = 1e2 … 1e6 and several
-   integrator tolerances.
+1. ``accuracy`` — error against a converged reference vs wall time per impact for each way of
+   averaging (2.8) over a cone of facets: the corrected closed form (2.10) where it exists, the
+   exact-arc quadrature at several node counts, uniform azimuth sampling (G* by indicator), and
+   Monte Carlo; then Gaussian slopes at a near-singular posture (graded quadrature vs Monte Carlo).
+2. ``overhead`` — per-call time of :func:`mbimpact.impact` divided by the time of the frame
+   Jacobian plus ``pin.impulseDynamics`` at the same q, v; beside it the Pinocchio calls alone and
+   the floor of validating q, v and building the result.
+3. ``batch`` — impacts per second of :meth:`ImpactLaw.apply_batch` for robots of increasing size
+   and for several node counts.
+4. ``compliant`` — error of the impact resolved in time (:func:`mbimpact.resolve`) against the
+   closed facet law, and its cost, for M = 1e2 … 1e6 and several integrator tolerances.
 """
 
 from __future__ import annotations
 
-import csv
 import math
-import platform
 import time
-import warnings
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from ..mechanism import PointContact, impact
-from ..errors import AccuracyWarning
-from ..laws import ImpactLaw, NewtonLaw
-from ..mechanism import Mechanism
-from .progress import Progress
-from ..results import ImpactResult
-from ..laws import RoughLaw
-from ..roughness import Cone, Facets
-from ..roughness import GaussianSlopes
+from ...laws import ImpactLaw, NewtonLaw, RoughLaw
+from ...mechanism import Mechanism, PointContact, impact
+from ...results import ImpactResult
+from ...roughness import Cone, Facets, GaussianSlopes
+from ..progress import Progress
+from .common import BenchRow, moving_frame, per_call
 
-__all__ = ["BenchRow", "run_bench", "format_report", "write_csv", "plot", "machine_summary", "moving_frame"]
+__all__ = ["accuracy", "overhead", "batch", "compliant", "OVERHEAD_ROBOTS", "BATCH_ROBOTS"]
 
 ALPHA = 0.4  # cone tilt: G* is cut for β > π/2 − α ≈ 67°
 E = 0.5
-
-
-@dataclass(frozen=True)
-class BenchRow:
-    """One measurement: ``part`` is accuracy, overhead or batch."""
-
-    part: str
-    case: str
-    method: str
-    param: float
-    error: float
-    seconds: float
-    ratio: float = math.nan
-
-
-def machine_summary() -> str:
-    """Processor, Python, numpy and Pinocchio versions, for the report."""
-    return (
-        f"{platform.processor() or platform.machine()}, {platform.system()}, Python {platform.python_version()}, "
-        f"numpy {np.__version__}, pinocchio {pin.__version__}"
-    )
-
-
-def per_call(fn: Callable[[], object], min_time: float) -> float:
-    """Best of 3 mean wall times of ``fn()``, each over at least ``min_time`` seconds."""
-    fn()  # warm caches
-    best = math.inf
-    for _ in range(3):
-        count, start = 0, time.perf_counter()
-        while True:
-            fn()
-            count += 1
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_time:
-                break
-        best = min(best, elapsed / count)
-    return best
 
 
 def closed_form_cone(alpha: float, e: float, v: np.ndarray) -> np.ndarray:
@@ -116,7 +67,7 @@ def _incident(beta_deg: float) -> np.ndarray:
     return np.array([math.sin(beta) * math.cos(0.3), math.sin(beta) * math.sin(0.3), -math.cos(beta)])
 
 
-def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+def accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
     rows: list[BenchRow] = []
     ur5 = Mechanism.from_robot("ur5")
     q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
@@ -166,15 +117,7 @@ def _accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow
 OVERHEAD_ROBOTS = ("ur5", "panda", "solo12", "talos")
 
 
-def moving_frame(mech: Mechanism, q: np.ndarray) -> str:
-    """The last-declared frame whose translational Jacobian at q is not zero."""
-    for name in reversed(mech.frame_names):
-        if np.linalg.norm(mech.point_jacobian(q, name)) > 1e-6:
-            return name
-    raise ValueError(f"no frame of {mech.name} moves")  # pragma: no cover
-
-
-def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> list[BenchRow]:
+def overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> list[BenchRow]:
     rows: list[BenchRow] = []
     for name in robots:
         mech = Mechanism.from_robot(name)
@@ -225,7 +168,7 @@ def _overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> l
 BATCH_ROBOTS = ("finger_edu", "ur5", "panda", "solo12", "talos", "tiago_dual")
 
 
-def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchRow]:
+def batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchRow]:
     rows: list[BenchRow] = []
     laws: list[tuple[str, float, ImpactLaw]] = [
         ("NewtonLaw", 0, NewtonLaw(E)),
@@ -266,9 +209,9 @@ def _batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[Bench
     return rows
 
 
-def _compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
+def compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]:
     """Resolved Kelvin–Voigt impact (full dynamics) against the closed facet law."""
-    from ..compliant import resolve
+    from ...compliant import resolve
 
     mech = Mechanism.from_robot("ur5")
     q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
@@ -301,95 +244,3 @@ def _compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRo
     return rows
 
 
-def run_bench(quick: bool = False, show_progress: bool = True) -> list[BenchRow]:
-    """Run the three parts; ``quick`` trims grids and repetitions (< 20 s)."""
-    min_time = 0.005 if quick else 0.05
-    acc_steps = 7 if quick else 17  # cone cases × incidences, then the graded slopes case
-    robots = OVERHEAD_ROBOTS[:2] + OVERHEAD_ROBOTS[2:] if not quick else ("ur5", "solo12")
-    batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
-    progress = Progress(acc_steps + len(robots) + len(batch_robots) + 1, "bench", enabled=show_progress)
-    with warnings.catch_warnings():
-        # the table reports every method's true error; a rounding-limited adaptive result need not warn too
-        warnings.simplefilter("ignore", AccuracyWarning)
-        rows = _accuracy(quick, min_time, progress)
-    rows += _compliant(quick, min_time, progress)
-    rows += _overhead(robots, min_time, progress)
-    rows += _batch(batch_robots, 5_000 if quick else 100_000, progress)
-    return rows
-
-
-def _table(title: str, header: str, lines: list[str]) -> list[str]:
-    """A markdown section: title, header row with its separator, then the lines."""
-    cols = header.count("|") - 1
-    return ["", title, "", header, "|" + "---|" * cols, *lines]
-
-
-def format_report(rows: list[BenchRow]) -> str:
-    """Markdown tables: accuracy (error, µs per impact), overhead ratios, batch throughput."""
-    def part(name: str) -> list[BenchRow]:
-        return [r for r in rows if r.part == name]
-
-    def blank0(x: float) -> str:
-        return "" if x == 0 else f"{x:g}"
-
-    out = [f"Machine: {machine_summary()}"]
-    out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
-                  "exact-arc quadrature, graded for the near-singular posture; Gaussian slopes against the "
-                  "graded rule with 128 nodes)",
-                  "| case | method | nodes/samples | rel. error | µs/impact |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
-                   for r in part("accuracy")])
-    out += _table("## Per-call cost against Pinocchio (same q, v, one run)",
-                  "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |",
-                  [f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |"
-                   for r in part("overhead")])
-    out += _table("## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)",
-                  "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |"
-                   for r in part("compliant")])
-    out += _table("## Batch throughput (apply_batch, one configuration)",
-                  "| robot | law | nodes | impacts/s | µs/impact |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
-                   for r in part("batch")])
-    return "\n".join(out)
-
-
-def write_csv(rows: list[BenchRow], path: Path) -> Path:
-    """All rows as CSV (columns of :class:`BenchRow`)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
-        writer.writeheader()
-        for r in rows:
-            writer.writerow(asdict(r))
-    return path
-
-
-def plot(rows: list[BenchRow], path: Path) -> Path:
-    """Error vs time per method, and batch cost per impact vs nv."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(15, 5.2))
-    acc = [r for r in rows if r.part == "accuracy"]
-    for method, slopes in dict.fromkeys((r.method, "Slopes" in r.case) for r in acc):
-        pts = [(r.seconds * 1e6, max(r.error, 1e-17)) for r in acc if (r.method, "Slopes" in r.case) == (method, slopes)]
-        ax1.scatter(*zip(*pts), label=method + (", Gaussian slopes" if slopes else ""), s=18,
-                    marker="x" if slopes else "o")
-    ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of Δu = W P",
-            title="Accuracy vs time: cone α = 0.4 (all β, all cases); x: Gaussian slopes, near-singular UR5")
-    ax1.legend(fontsize=8)
-    bat = [r for r in rows if r.part == "batch"]
-    for name, param in dict.fromkeys((r.method, r.param) for r in bat):
-        series = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6)
-                        for r in bat if (r.method, r.param) == (name, param))
-        ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
-    ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
-    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

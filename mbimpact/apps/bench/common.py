@@ -1,0 +1,64 @@
+"""What every part of the bench shares: the row of a measurement, the timer, the machine."""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ...mechanism import Mechanism
+
+__all__ = ["BenchRow", "machine_summary", "per_call", "moving_frame"]
+
+
+@dataclass(frozen=True)
+class BenchRow:
+    """One measurement: ``part`` is accuracy, overhead or batch."""
+
+    part: str
+    case: str
+    method: str
+    param: float
+    error: float
+    seconds: float
+    ratio: float = math.nan
+
+
+def machine_summary() -> str:
+    """Processor, Python, numpy and Pinocchio versions, for the report."""
+    return (
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {platform.system()}, "
+        f"Python {platform.python_version()}, numpy {np.__version__}, pinocchio {pin.__version__}"
+    )
+
+
+def per_call(fn: Callable[[], object], min_time: float) -> float:
+    """Best of 3 mean wall times of ``fn()``, each over at least ``min_time`` seconds."""
+    fn()  # warm caches
+    best = math.inf
+    for _ in range(3):
+        count, start = 0, time.perf_counter()
+        while True:
+            fn()
+            count += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= min_time:
+                break
+        best = min(best, elapsed / count)
+    return best
+
+
+def moving_frame(mech: Mechanism, q: np.ndarray) -> str:
+    """The last-declared frame whose translational Jacobian at q is not zero."""
+    for name in reversed(mech.frame_names):
+        if np.linalg.norm(mech.point_jacobian(q, name)) > 1e-6:
+            return name
+    raise ValueError(f"no frame of {mech.name} moves")  # pragma: no cover
+
+

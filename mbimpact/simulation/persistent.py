@@ -1,0 +1,190 @@
+"""Persistent contact: velocity-level time stepping on Coulomb cones, with lift-off and new strikes.
+
+While one contact or more rests or slides, the run steps with the scene's ``contact_step``
+(first order, Moreau's scheme): the impulses of the persistent points over each step solve a
+Coulomb cone problem (Pinocchio's ADMM, :mod:`~mbimpact.simulation.cones`), so normal forces
+push only, a contact lifts off when it would pull, and sticking and sliding follow from the
+friction cone with the declared μ. A collision pair rests on every point of its contact patch
+(a box lying flat on its four corners).
+
+Along each step's path the open contacts keep their event detection, and so does every
+further point of a resting pair: a box resting on an edge whose other edge comes down strikes
+there by its law, at the instant the edge lands.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .run import RunBase, Stop
+from .scene import SceneContact
+from .trajectory import ContactEvent
+
+__all__ = ["Persistent"]
+
+
+class Persistent(RunBase):
+    """The persistent-contact phase of a run."""
+
+    def contact_phase(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]
+                      ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+        scene = self.scene
+        gaps0 = self.kin.gaps(q, t)
+        instant = 0  # events in a row at the same instant
+        while t < scene.duration and any(self.active):
+            h = min(scene.contact_step, scene.duration - t)
+            w = self.step_velocity(t, q, v, h)  # the step's velocity, expressed at q: the path is q ⊕ s w
+            q1 = self.step_configuration(q, h * w)
+            v1 = self.transport(q, q1, w)
+            gaps1, rates1 = self.kin.rates(q1, v1, t + h)
+            hit = self.path_crossing(t, q, w, h, gaps0, gaps1, rates1)
+            if hit is not None:
+                s, group = hit
+                pushing, forces = list(self.pushing), self.forces.copy()
+                t_s, q_s, v_s = t, q, v
+                if s > 0.0:
+                    # the velocity of a step of length s, on the path the crossing was found on (so that
+                    # the struck point is on its surface)
+                    q_s, t_s = self.step_configuration(q, s * w), t + s
+                    v_s = self.transport(q, q_s, self.step_velocity(t, q, v, s))
+                gaps, rates = self.kin.rates(q_s, v_s, t_s)
+                if any(self.active[i] and gaps[i] < -0.1 * scene.tolerance for i in range(self.nc)):
+                    # the persistent points drift O(s²) below their surfaces inside a step: back on them
+                    q_s = self.project(t_s, q_s, gaps)
+                    gaps, rates = self.kin.rates(q_s, v_s, t_s)
+                group = sorted(set(group) | {j for j in range(self.nc) if not self.active[j]
+                                             and gaps[j] <= scene.tolerance and rates[j] < 0})
+                logged = len(self.events)
+                v_after = self.impact(t_s, q_s, v_s, group)
+                if len(self.events) > logged or v_after is not v_s:
+                    instant = instant + 1 if t_s == t else 0
+                    if instant > 100:
+                        raise Stop("event_limit", f"no progress at t = {t:.9g}: contacts {group} strike again and "
+                                                  "again at the same instant")
+                    self.emit(t_s, q_s, v_s)
+                    t, q, v = t_s, q_s, v_after
+                    self.emit(t, q, v)
+                    gaps0 = self.kin.gaps(q, t)
+                    self.check_limits(t)
+                    continue
+                # nothing struck (a further point of a resting pair arriving slower than rest_velocity):
+                # it joins the persistent contact through the step's gap term and the projection
+                self.pushing, self.forces = pushing, forces
+            instant = 0
+            if any(self.active[i] and gaps1[i] < -0.1 * scene.tolerance for i in range(self.nc)):
+                q1 = self.project(t + h, q1, gaps1)
+                gaps1, rates1 = self.kin.rates(q1, v1, t + h)
+            t, q, v, gaps0 = t + h, q1, v1, gaps1
+            self.work["contact_steps"] += 1
+            self.lift_offs(t, gaps1, rates1)
+            while self.next_sample < len(self.grid) and self.grid[self.next_sample] <= t + 1e-12:
+                self.next_sample += 1
+                self.emit(t, q, v)
+            self.check_limits(t)
+        return t, q, v
+
+    def step_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float
+                      ) -> NDArray[np.float64]:
+        """One step of Moreau's scheme: v⁺ = v + h a_free + A⁻¹ Jcᵀ λ with λ on the cones (v⁺ expressed
+        at q; the step then moves q along q ⊕ s v⁺), and the contact forces of the step."""
+        active = [i for i in range(self.nc) if self.active[i]]
+        v_free = v + h * self.acceleration(t, q, v)
+        states = self.kin.states(q, v_free, t, active)
+        A, factor = self.mech.factorise(q)
+        Jc = np.vstack([s.frame.T @ s.J for s in states])
+        AinvJt = factor.solve(Jc.T)
+        G = Jc @ AinvJt
+        G = 0.5 * (G + G.T)
+        g = np.empty(3 * len(states))
+        for k, s in enumerate(states):
+            c = self.scene.contacts[s.index]
+            if isinstance(c, SceneContact) and c.surface.moving:
+                self.work["surface_motion"] += 1
+                # the mean velocity of the surface over the step: the gap then closes exactly
+                mean = (c.surface.offset(t + h)[0] - c.surface.offset(t)[0]) / h * c.surface.normal
+                u = s.J @ v_free - mean
+            else:
+                u = s.u
+            g[3 * k: 3 * k + 3] = s.frame.T @ u
+            g[3 * k + 2] += s.gap / h  # the predicted gap at the step's end stays ≥ 0
+        mus = tuple(self.frictions[s.index] for s in states)
+        if any(mus):
+            self.work["friction_cone"] += 1
+        lam = self.cones.solve(G, g, mus)
+        scale = float(np.abs(lam[2::3]).max(initial=0.0))
+        self.forces[:] = 0.0
+        for i in active:
+            self.pushing[i] = False
+        for k, s in enumerate(states):
+            self.pushing[s.index] |= bool(lam[3 * k + 2] > 1e-9 * scale)
+            self.forces[s.index] += s.frame @ lam[3 * k: 3 * k + 3] / h
+        return v_free + AinvJt @ lam
+
+    def project(self, t: float, q: NDArray[np.float64], gaps: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Back onto the surfaces: the step moves a persistent contact off its surface by O(h²) (a
+        rotating body's points move along straight lines for a step). When that puts a contact below
+        its surface, the smallest change of q in the kinetic metric that puts the pushing points
+        (and any below the surface) at gap 0."""
+        active = [i for i in range(self.nc) if self.active[i]]
+        for _ in range(3):
+            # the next step's gap term closes small drifts; a drift below the surface is projected now
+            if not any(gaps[i] < -0.1 * self.scene.tolerance for i in active):
+                return q
+            rows = [s for s in self.kin.states(q, np.zeros(self.nv), t, active)
+                    if self.pushing[s.index] or s.gap < 0.0]
+            Jn = np.array([s.normal @ s.J for s in rows])
+            A, factor = self.mech.factorise(q)
+            AinvJt = factor.solve(Jn.T)
+            dq = -AinvJt @ np.linalg.lstsq(Jn @ AinvJt, np.array([s.gap for s in rows]), rcond=1e-12)[0]
+            q = self.configuration(q, dq)
+            gaps = self.kin.gaps(q, t)
+            self.work["projection"] += 1
+        return q
+
+    def path_crossing(self, t: float, q: NDArray[np.float64], v1: NDArray[np.float64], h: float,
+                      g0: NDArray[np.float64], g1: NDArray[np.float64], r1: NDArray[np.float64]
+                      ) -> tuple[float, list[int]] | None:
+        """The first strike along the step's path q(s) = q ⊕ s v⁺, s ∈ [0, h] (gaps ``g0`` at its
+        start, ``g1`` and rates ``r1`` at its end): an open contact crossing its surface, or a
+        further point of a resting pair crossing fast (its nearest point at the step's end is below
+        the surface and approaching faster than ``rest_velocity``). The fraction s of the step at
+        the crossing, and the contact."""
+        from scipy.optimize import brentq
+
+        tol = self.scene.tolerance
+        xtol = 4 * np.finfo(float).eps * max(1.0, h)
+        first: tuple[float, list[int]] | None = None
+        for i in range(self.nc):
+            if self.active[i]:
+                if not (self.kin.is_pair(i) and g1[i] < -0.1 * tol and r1[i] < -self.scene.rest_velocity):
+                    continue
+                # the material point that is nearest at the step's end, followed back along the path
+                gap = self.kin.material_gap(i, self.step_configuration(q, h * v1), t + h)
+                if gap(q) <= 0.0:  # on the surface already: a resting point drifting, for the projection
+                    continue
+                s = brentq(lambda s, gap=gap: gap(self.step_configuration(q, s * v1)), 0.0, h, xtol=xtol)
+            else:
+                if not self.armed[i] and g0[i] > tol:
+                    self.armed[i] = True
+                if not (g1[i] < 0.0 and (self.armed[i] or r1[i] < 0.0)):
+                    continue
+                if g0[i] < 0.0:
+                    s = 0.0
+                else:
+                    s = brentq(lambda s, i=i: float(self.kin.gaps(self.step_configuration(q, s * v1), t + s)[i]), 0.0, h,
+                               xtol=xtol)
+            if first is None or s < first[0]:
+                first = (s, [i])
+        return first
+
+    def lift_offs(self, t: float, gaps: NDArray[np.float64], rates: NDArray[np.float64]) -> None:
+        """A persistent contact whose gap opened (the cone gave it no push) becomes open."""
+        for i in range(self.nc):
+            if self.active[i] and not self.pushing[i] and gaps[i] > self.scene.tolerance and rates[i] > 0.0:
+                self.active[i], self.armed[i] = False, False
+                self.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i])))
+            elif self.active[i] and gaps[i] < -self.scene.tolerance:
+                raise Stop("penetration", f"persistent contact {i} ({self.scene.contacts[i].label}) is "
+                                          f"{-gaps[i]:.3g} m inside its surface at t = {t:.9g}, beyond the tolerance "
+                                          f"{self.scene.tolerance:g} m; reduce contact_step")

@@ -1,0 +1,208 @@
+"""The state of one simulation run and its bookkeeping, shared by the phases of the run.
+
+:class:`RunBase` holds what every phase reads and writes: the scene, Pinocchio's workspace,
+each contact's mode (open and armed, open and disarmed after an impact, persistent), the
+output samples, the event log and the counters of the work done, and the limits that stop a
+run with a named status. The phases are in :mod:`~mbimpact.simulation.flight` (free flight),
+:mod:`~mbimpact.simulation.impacts` (impacts) and :mod:`~mbimpact.simulation.persistent`
+(persistent contact); :mod:`~mbimpact.simulation.simulator` runs them.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter, deque
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import NDArray
+
+from ..apps.progress import Progress
+from ..laws.base import ImpactLaw
+from ..laws.newton import NewtonLaw
+from ..laws.rough import RoughLaw
+from ..roughness import Smooth
+from .cones import ConeSolver
+from .kinematics import ContactKinematics
+from .scene import Scene, SceneContact
+from .trajectory import ContactEvent
+
+__all__ = ["RunBase", "Stop", "scene_law"]
+
+# a window of simulated time over which the event rate is measured [s]
+RATE_WINDOW = 0.01
+
+
+def scene_law(law: ImpactLaw) -> ImpactLaw:
+    """The law a scene applies: no microrelief with Newton facets ⇒ Newton's law (no facet work);
+    rough laws repeat their micro-impacts until the contact separates."""
+    if isinstance(law, RoughLaw) and isinstance(law.roughness, Smooth) and law.facet.newton_restitution is not None:
+        return NewtonLaw(law.facet.newton_restitution)
+    if isinstance(law, RoughLaw) and not law.repeat:
+        return law.replace(repeat=True)
+    return law
+
+
+class Stop(Exception):
+    """Ends the run with a status and a message."""
+
+    def __init__(self, status: str, message: str) -> None:
+        super().__init__(message)
+        self.status, self.message = status, message
+
+
+class RunBase:
+    """One run of a scene: state, output and limits (see the module docstring)."""
+
+    def __init__(self, scene: Scene, samples: int, progress: bool) -> None:
+        from scipy.integrate import DOP853  # deferred: scipy.integrate costs 0.1 s to import
+
+        self.DOP853 = DOP853
+        self.scene = scene
+        mech = scene.mechanism
+        self.mech = mech
+        self.model = mech.model.copy()
+        if not scene.gravity:
+            self.model.gravity.linear[:] = 0.0
+        self.data = self.model.createData()
+        self.kin = ContactKinematics(scene, self.model, self.data)
+        self.nc, self.nv, self.nq = len(scene.contacts), mech.nv, mech.nq
+        self.euclidean = self.model.nq == self.model.nv
+        self.laws = [scene_law(c.law) for c in scene.contacts]
+        self.frictions = [c.friction for c in scene.contacts]
+        self.active = [False] * self.nc
+        self.armed = [True] * self.nc
+        self.pushing = [False] * self.nc  # the persistent contact pushed in the last step
+        self.rebounds: list[list[tuple[float, float]]] = [[] for _ in range(self.nc)]
+        self.last_impact = [-math.inf] * self.nc
+        self.last_struck: list[NDArray[np.float64] | None] = [None] * self.nc  # in body coordinates (pairs)
+        self.events: list[ContactEvent] = []
+        self.work: Counter[str] = Counter()
+        self.cones = ConeSolver()
+        self.rng = np.random.default_rng(0)
+        self.grid = np.linspace(0.0, scene.duration, max(2, samples))
+        self.next_sample = 1
+        self.out_t: list[float] = []
+        self.out_q: list[NDArray[np.float64]] = []
+        self.out_v: list[NDArray[np.float64]] = []
+        self.out_active: list[tuple[bool, ...]] = []
+        self.out_forces: list[NDArray[np.float64]] = []
+        self.forces = np.zeros((self.nc, 3))  # mean contact forces over the last persistent-contact step
+        self.start = time.perf_counter()
+        self.recent: deque[float] = deque()
+        self.peak_rate = 0.0
+        self.impacts = 0
+        self.mask = np.ones(self.nv)
+        self.free_flyer = self.model.njoints > 1 and self.model.joints[1].shortname() == "JointModelFreeFlyer"
+        if self.free_flyer:
+            self.mask[:6] = 0.0  # the free-flyer is not actuated
+        freqs = [c.surface.frequency for c in scene.contacts if isinstance(c, SceneContact) and c.surface.moving]
+        # a moving surface can cross a flight twice within a long step: a step is a fraction of its period
+        self.max_step = min(1.0 / (16.0 * max(freqs)) if freqs else math.inf, scene.duration / 4)
+        self.bar = Progress(100, scene.name, enabled=progress)
+        self.shown = 0
+
+    # ---------------------------------------------------------------- forces and dynamics
+    def torque(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+        scene = self.scene
+        tau = np.zeros(self.nv) if scene.torque is None else scene.torque.copy()
+        if scene.damping:
+            self.work["damping"] += 1
+            tau -= scene.damping * v
+        if scene.pd is not None:
+            self.work["pd"] += 1
+            err = pin.difference(self.model, q, scene.pd.q_ref)
+            tau += self.mask * (scene.pd.kp * err - scene.pd.kd * v)
+        return tau
+
+    def acceleration(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+        self.work["dynamics"] += 1
+        if self.scene.gravity:
+            self.work["gravity"] += 1
+        return pin.aba(self.model, self.data, q, v, self.torque(t, q, v))
+
+    def configuration(self, anchor: NDArray[np.float64], dq: NDArray[np.float64]) -> NDArray[np.float64]:
+        """anchor ⊕ dq (Pinocchio's integration: a free flyer moves along a screw)."""
+        if self.euclidean:
+            return anchor + dq
+        return pin.integrate(self.model, anchor, dq)
+
+    def step_configuration(self, q: NDArray[np.float64], dq: NDArray[np.float64]) -> NDArray[np.float64]:
+        """q advanced by dq over a persistent-contact step: as :meth:`configuration`, except that a free
+        flyer's origin moves along a straight line (R³ × SO(3) instead of SE(3)). The screw of SE(3)
+        turns a rolling sphere about its contact point, so its centre would dip by R ω² h² / 2 every
+        step and be projected back up, feeding it energy; on the straight line it rolls level."""
+        if not self.free_flyer:
+            return self.configuration(q, dq)
+        out = pin.integrate(self.model, q, dq)
+        R = pin.Quaternion(q[3:7]).matrix()
+        out[:3] = q[:3] + R @ dq[:3]
+        out[3:7] = pin.Quaternion(R @ pin.exp3(dq[3:6])).coeffs()
+        return out
+
+    def transport(self, q0: NDArray[np.float64], q1: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A velocity at q0 expressed at q1 with the same world linear velocity of a free flyer."""
+        if not self.free_flyer:
+            return v
+        out = v.copy()
+        out[:3] = pin.Quaternion(q1[3:7]).matrix().T @ (pin.Quaternion(q0[3:7]).matrix() @ v[:3])
+        return out
+
+    def surface_moving(self, i: int) -> bool:
+        """Contact i is on a moving surface."""
+        c = self.scene.contacts[i]
+        return isinstance(c, SceneContact) and c.surface.moving
+
+    # ---------------------------------------------------------------- bookkeeping
+    def emit(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> None:
+        self.out_t.append(t)
+        self.out_q.append(q.copy())
+        self.out_v.append(v.copy())
+        self.out_active.append(tuple(self.active))
+        self.out_forces.append(self.forces.copy() if any(self.active) else np.zeros((self.nc, 3)))
+
+    def event(self, e: ContactEvent) -> None:
+        self.events.append(e)
+        self.recent.append(e.t)
+        while self.recent and e.t - self.recent[0] > RATE_WINDOW:
+            self.recent.popleft()
+        rate = len(self.recent) / RATE_WINDOW
+        self.peak_rate = max(self.peak_rate, rate)
+        if len(self.recent) > max(20.0, self.scene.max_events_per_second * RATE_WINDOW):
+            raise Stop("event_limit", f"{len(self.recent)} events within {RATE_WINDOW:g} s of simulated time "
+                                      f"before t = {e.t:.9g} (contact {e.contact}, {e.kind}): over "
+                                      f"max_events_per_second = {self.scene.max_events_per_second:g}")
+
+    def check_limits(self, t: float) -> None:
+        elapsed = time.perf_counter() - self.start
+        if elapsed > self.scene.max_wall_time:
+            raise Stop("wall_time", f"stopped at t = {t:.9g} s after {elapsed:.3g} s of wall time "
+                                    f"(max_wall_time = {self.scene.max_wall_time:g} s)")
+        now = int(100 * t / self.scene.duration)
+        while self.shown < min(now, 100):
+            self.bar.step(f"t={t:.3g}s, {self.impacts} impacts")
+            self.shown += 1
+
+    # ---------------------------------------------------------------- phases (defined by the mixins)
+    def impact(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], group: list[int]) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def at_event(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], kind: str, which: list[int]
+                 ) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def rest(self, t: float, i: int, un: float) -> None:
+        raise NotImplementedError
+
+    def zeno_tail(self, i: int, t: float, un: float | None = None) -> float:
+        raise NotImplementedError
+
+    def sample_until(self, state: Any, t_end: float) -> None:
+        """Emit the output grid points up to ``t_end`` (``state(t)`` gives (q, v))."""
+        while self.next_sample < len(self.grid) and self.grid[self.next_sample] <= t_end:
+            tg = float(self.grid[self.next_sample])
+            q, v = state(tg)
+            self.emit(tg, q, v)
+            self.next_sample += 1
