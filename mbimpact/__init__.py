@@ -13,7 +13,7 @@ The pipeline, one subpackage per stage:
 
 Around it: :mod:`mbimpact.compliant` (the model resolved in time),
 :mod:`mbimpact.simulation` (scenes and their simulation, section 4),
-:mod:`mbimpact.fit` (calibration of laws against measured impacts) and
+:mod:`mbimpact.calibration` (calibration of laws against measured impacts) and
 :mod:`mbimpact.apps` (the ``mbimpact`` command, loaded on use). The theory the code
 implements is in :mod:`mbimpact.theory`.
 """
@@ -49,7 +49,7 @@ from .errors import (
     TableError,
 )
 from .facets import FACETS, CompliantFacet, CoulombFacet, FacetLaw, HuntCrossleyFacet, NewtonFacet, facet_law
-from .fit import Ball, Fit, ImpactTable, PointMass, calibrate
+from .calibration import Ball, Fit, ImpactTable, PointMass, fit
 from .geometry import (
     Box,
     Capsule,
@@ -180,7 +180,7 @@ __all__ = [
     "ImpactTable",
     "Ball",
     "PointMass",
-    "calibrate",
+    "fit",
     "Fit",
     # scenes
     "Scene",

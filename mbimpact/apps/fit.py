@@ -1,8 +1,8 @@
 """``mbimpact fit DATA.csv``: fit impact laws to a data table and compare them side by side.
 
-Every law family asked for (:data:`mbimpact.fit.FAMILIES`; by default Newton's, Coulomb's,
+Every law family asked for (:data:`mbimpact.calibration.FAMILIES`; by default Newton's, Coulomb's,
 and the rough law with Newton, Coulomb and compliant facets, plus plain compliant
-facets) is fitted to the table by :func:`mbimpact.calibrate`; the command prints each law's
+facets) is fitted to the table by :func:`mbimpact.fit`; the command prints each law's
 parameters ± standard errors and its RMS per column, and with ``--out DIR`` writes
 
 * ``<table>_fit.csv`` — one row per law and parameter (value, error) and per column (RMS);
@@ -44,15 +44,15 @@ class Skipped:
 
 def fit_laws(table: Any, laws: tuple[str, ...], body: Any = None, speed: float | None = None,
              starts: int | None = None, seed: int = 0, progress: bool = False) -> list[Any]:
-    """:func:`mbimpact.calibrate` of every family in ``laws``: a list of :class:`~mbimpact.fit.Fit` or :class:`Skipped`."""
-    from ..fit import FitError, calibrate
+    """:func:`mbimpact.fit` of every family in ``laws``: a list of :class:`~mbimpact.calibration.Fit` or :class:`Skipped`."""
+    from ..calibration import FitError, fit
 
     out: list[Any] = []
     for name in laws:
         if progress:
             print(f"fitting {name} ...", flush=True)
         try:
-            out.append(calibrate(table, name, body, speed=speed, starts=starts, seed=seed))
+            out.append(fit(table, name, body, speed=speed, starts=starts, seed=seed))
         except FitError as exc:
             if "speed" in str(exc):  # a speed-dependent law on a table without speeds: say so, go on
                 out.append(Skipped(name, str(exc)))
@@ -131,7 +131,7 @@ def plot(table: Any, fits: list[Any], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..fit import QUANTITIES
+    from ..calibration import QUANTITIES
 
     done = [f for f in fits if not isinstance(f, Skipped)]
     panels = list(table.quantities) + (["et_cp"] if "et_cp" not in table.quantities else [])
@@ -192,7 +192,7 @@ def best_per_column(fits: list[Any]) -> str:
 
 
 def _laws(text: list[str] | None) -> tuple[str, ...]:
-    from ..fit import FAMILIES
+    from ..calibration import FAMILIES
 
     if not text:
         return DEFAULT_LAWS
@@ -205,11 +205,11 @@ def _laws(text: list[str] | None) -> tuple[str, ...]:
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``mbimpact fit`` on the CLI's subparsers; its ``func`` is :func:`run`."""
-    from ..fit import FAMILIES
+    from ..calibration import FAMILIES
 
     p = subparsers.add_parser("fit", help="fit impact laws to a data table (CSV) and compare them",
                               description=__doc__.split("\n\n")[0] if __doc__ else None)
-    p.add_argument("data", help="table CSV (see mbimpact.fit.table), or a shipped name: kharaz2001, "
+    p.add_argument("data", help="table CSV (see mbimpact.calibration.table), or a shipped name: kharaz2001, "
                                 "grant_tabakoff1975")
     p.add_argument("--law", action="append",
                    help="law families to fit, comma-separated or repeated (default: "
@@ -225,7 +225,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Fit, print, and write the outputs of ``mbimpact fit``; 0 on success."""
-    from ..fit import ImpactTable
+    from ..calibration import ImpactTable
 
     table = ImpactTable.from_csv(args.data)
     body = None

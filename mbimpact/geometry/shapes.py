@@ -234,13 +234,19 @@ class Sphere(_Posed):
     rotation : array_like, shape (3, 3)
         Accepted for uniformity with the other shapes (a sphere does not depend on it).
     name : str, optional
+    mass : float, optional
+        Mass (kg, > 0). Collision queries ignore it; with it the sphere is also a body for
+        :func:`mbimpact.fit` (a solid ball with spin, inertia 2/5 m R²).
     """
 
     radius: float = 1.0
+    mass: float | None = field(default=None, kw_only=True)
     kind: ClassVar[str] = "sphere"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "radius", _positive("radius", self.radius))
+        if self.mass is not None:
+            object.__setattr__(self, "mass", _positive("mass", self.mass))
         self._finish(coal.Sphere(self.radius))
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import mbimpact as mbi
 from mbimpact.facets import CompliantFacet, CoulombFacet, FacetLaw, HuntCrossleyFacet, NewtonFacet
-from mbimpact.fit import Ball
+from mbimpact.calibration import Ball
 
 
 def test_pinocchio_sphere_equals_the_sphere_arrays() -> None:

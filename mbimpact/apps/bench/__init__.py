@@ -71,8 +71,10 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
         elif part == "scenes":
             rows += scene_throughput(scenes, progress)
         elif part == "mujoco":
-            from .mujoco import available, mujoco_rows
+            from .mujoco import UNAVAILABLE, available, mujoco_rows
 
             if available():
                 rows += mujoco_rows(quick, progress)
+            else:
+                print(UNAVAILABLE)
     return rows

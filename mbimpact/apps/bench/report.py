@@ -18,7 +18,8 @@ def _table(title: str, header: str, lines: list[str]) -> list[str]:
 
 
 def format_report(rows: list[BenchRow]) -> str:
-    """Markdown tables: accuracy (error, µs per impact), overhead ratios, batch throughput."""
+    """Markdown tables of the parts that ran: accuracy, overhead ratios, compliant route, batches,
+    geometry, scenes and MuJoCo."""
     def part(name: str) -> list[BenchRow]:
         return [r for r in rows if r.part == name]
 
@@ -26,24 +27,28 @@ def format_report(rows: list[BenchRow]) -> str:
         return "" if x == 0 else f"{x:g}"
 
     out = [f"Machine: {machine_summary()}"]
-    out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
-                  "exact-arc quadrature, graded for the near-singular posture; Gaussian slopes against the "
-                  "graded rule with 128 nodes)",
-                  "| case | method | nodes/samples | rel. error | µs/impact |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
-                   for r in part("accuracy")])
-    out += _table("## Per-call cost against Pinocchio (same q, v, one run)",
-                  "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |",
-                  [f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |"
-                   for r in part("overhead")])
-    out += _table("## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)",
-                  "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |"
-                   for r in part("compliant")])
-    out += _table("## Batch throughput (apply_batch, one configuration)",
-                  "| robot | law | nodes | impacts/s | µs/impact |",
-                  [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
-                   for r in part("batch")])
+    if part("accuracy"):
+        out += _table("## Accuracy vs time (cone alpha=0.4, e=0.5; relative error of Δu = W P against a 1024-node "
+                      "exact-arc quadrature, graded for the near-singular posture; Gaussian slopes against the "
+                      "graded rule with 128 nodes)",
+                      "| case | method | nodes/samples | rel. error | µs/impact |",
+                      [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.1f} |"
+                       for r in part("accuracy")])
+    if part("overhead"):
+        out += _table("## Per-call cost against Pinocchio (same q, v, one run)",
+                      "| robot | nv | call | µs | ratio to Jacobian + impulseDynamics |",
+                      [f"| {r.case} | {r.param:g} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} |"
+                       for r in part("overhead")])
+    if part("compliant"):
+        out += _table("## Compliant route: resolved Kelvin–Voigt impact vs the closed law (UR5, one facet, e=0.5)",
+                      "| tolerance | method | M | rel. error vs closed law | µs | time / closed law (batched) |",
+                      [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds * 1e6:.3g} | {r.ratio:.3g} |"
+                       for r in part("compliant")])
+    if part("batch"):
+        out += _table("## Batch throughput (apply_batch, one configuration)",
+                      "| robot | law | nodes | impacts/s | µs/impact |",
+                      [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
+                       for r in part("batch")])
     if part("geometry"):
         out += _table("## Collision geometry: cost of a gap query per contact pair against one rough-law impact",
                       "| mechanism | query | pairs | µs | ratio to one rough impact |",
@@ -56,10 +61,9 @@ def format_report(rows: list[BenchRow]) -> str:
                       [f"| {r.case} | {r.method} | {r.param:g} | {r.seconds:.3g} | {r.ratio:.3g} | "
                        f"{r.param / r.seconds:.3g} | {r.error:.2g} |" for r in part("scenes")])
     if part("mujoco"):
-        out += _table("## Against MuJoCo on the same scenes (accuracy of the impact outcome, and speed)",
-                      "| scene | simulator | setting | error of the impact outcome | wall s | simulated s per wall s |",
-                      [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.error:.2e} | {r.seconds:.3g} | {r.ratio:.3g} |"
-                       for r in part("mujoco")])
+        from .mujoco import format_rows
+
+        out += ["", format_rows(rows)]
     return "\n".join(out)
 
 

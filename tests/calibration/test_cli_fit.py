@@ -11,7 +11,7 @@ import pytest
 
 import mbimpact as mbi
 from mbimpact.apps import fit as fit_app
-from mbimpact.fit import Ball, predict
+from mbimpact.calibration import Ball, predict
 
 
 def _parse(argv: list[str]) -> argparse.Namespace:

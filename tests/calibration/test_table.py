@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mbimpact as mbi
-from mbimpact.fit import ImpactTable, PointMass, Ball, TableError, data_names, data_path
+from mbimpact.calibration import ImpactTable, PointMass, Ball, TableError, data_names, data_path
 
 
 def test_shipped_data_sets_cite_their_sources() -> None:

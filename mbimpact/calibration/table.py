@@ -4,7 +4,7 @@ A table file is CSV: comment lines starting with ``#`` (the source and notes; li
 ``# key: value`` become metadata, indented comment lines continue the previous key),
 a header row of column names, then one row per incidence angle. A blank cell is a
 gap. Columns: ``theta_deg`` (required), ``speed`` (m/s) and any of the quantities of
-:mod:`mbimpact.fit.quantities` (``kappa``, ``mu``, ``et``, ``et_cp``, ``spin``,
+:mod:`mbimpact.calibration.quantities` (``kappa``, ``mu``, ``et``, ``et_cp``, ``spin``,
 ``rebound_deg``, ``rebound_cp_deg``); the metadata key ``body`` (``sphere radius=R
 mass=m`` or ``point``) names the body of the experiment.
 
@@ -43,7 +43,7 @@ class ImpactTable:
     theta_deg : array_like, shape (n,)
         Incidence from the normal, degrees in [0, 90).
     columns : mapping of str to array_like, shape (n,) each
-        Quantities by name (:data:`mbimpact.fit.quantities.QUANTITIES`); NaN marks a gap.
+        Quantities by name (:data:`mbimpact.calibration.quantities.QUANTITIES`); NaN marks a gap.
     speed : array_like, shape (n,), optional
         Impact speed per row (m/s, > 0).
     meta : mapping of str to str

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from ..common.validation import as_scalar
 from ..errors import FitError
 
-__all__ = ["Body", "Ball", "PointMass", "Motion"]
+__all__ = ["Body", "Ball", "PointMass", "Motion", "as_body"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,3 +160,22 @@ class PointMass(Body):
 
     def motion(self, V: NDArray[np.float64], d: int) -> Motion:
         return Motion(vt=V[:, 0], vn=V[:, -1], ut=V[:, 0], un=V[:, -1], spin=np.zeros(len(V)))
+
+
+def as_body(body: object) -> Body:
+    """``body`` as a :class:`Body`: a Body as it is, a collision :class:`mbimpact.Sphere` with a
+    ``mass`` as the solid :class:`Ball` of its radius and mass.
+
+    Raises
+    ------
+    FitError
+        Anything else, or a sphere without a mass.
+    """
+    if isinstance(body, Body):
+        return body
+    if getattr(body, "kind", None) == "sphere":  # mbimpact.Sphere (not imported: coal is not needed here)
+        mass = getattr(body, "mass", None)
+        if mass is None:
+            raise FitError("a Sphere is a body only with its mass: Sphere(radius, mass=...)")
+        return Ball(float(body.radius), float(mass))  # type: ignore[attr-defined]
+    raise FitError(f"body must be a Ball, a PointMass or a Sphere with a mass, got {type(body).__name__}")

@@ -41,7 +41,7 @@ def predict(law: ImpactLaw, theta_deg: ArrayLike, body: Body | None = None, spee
     Returns
     -------
     dict of str to ndarray, shape (B,)
-        The columns of :data:`mbimpact.fit.quantities.QUANTITIES` (see there for their meaning).
+        The columns of :data:`mbimpact.calibration.quantities.QUANTITIES` (see there for their meaning).
     """
     body = PointMass() if body is None else body
     theta = np.radians(np.atleast_1d(np.asarray(theta_deg, dtype=float)))

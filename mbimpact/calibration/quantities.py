@@ -1,6 +1,6 @@
 r"""What a column of an impact table means, and how a law predicts it.
 
-Every prediction is made for the table's body (:mod:`mbimpact.fit.bodies`) arriving in
+Every prediction is made for the table's body (:mod:`mbimpact.calibration.bodies`) arriving in
 the x–z plane with centre-of-mass velocity V (sin θ, −cos θ) and no spin, on a surface
 with normal e_z; ``+`` marks values after the impact, ``−`` before. For a sphere the
 normal velocities of the centre of mass and of the contact point coincide (r ∥ n⁰),

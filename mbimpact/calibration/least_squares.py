@@ -1,9 +1,9 @@
 r"""Calibration: fit a law's parameters to an impact table by least squares.
 
-The residual of a table cell is the law's prediction (:mod:`mbimpact.fit.quantities`)
+The residual of a table cell is the law's prediction (:mod:`mbimpact.calibration.quantities`)
 minus the datum, made dimensionless (ratios as they are, angles in radians, spins as
 ωR/V) and multiplied by the column's weight; gaps are skipped. The free parameters
-(:mod:`mbimpact.fit.parameters`) are varied within their bounds by
+(:mod:`mbimpact.calibration.parameters`) are varied within their bounds by
 ``scipy.optimize.least_squares`` (trust-region reflective, finite-difference Jacobian),
 from several starting points when the problem is not known to be convex — the
 template's values and ``starts − 1`` points drawn uniformly in the bounds (seeded) —
@@ -32,13 +32,13 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import FitError, ImpactError, ImpactWarning
 from ..laws.base import ImpactLaw
 from ..laws.rough import RoughLaw
-from .bodies import Body, PointMass
+from .bodies import Body, PointMass, as_body
 from .parameters import PARAMETERS, family, law_parameters, with_parameters
 from .predict import predict
 from .quantities import QUANTITIES, residual_scale
 from .table import ImpactTable
 
-__all__ = ["Fit", "calibrate"]
+__all__ = ["Fit", "fit"]
 
 #: The residual given to every cell where the law cannot be evaluated (an error, or NaN).
 PENALTY = 10.0
@@ -50,7 +50,7 @@ _NONCONVEX = {"sigma", "alpha", "kt", "hc"}
 
 @dataclass(frozen=True, eq=False)
 class Fit:
-    """The outcome of :func:`calibrate`.
+    """The outcome of :func:`fit`.
 
     Attributes
     ----------
@@ -132,10 +132,10 @@ class Fit:
         return "\n".join(lines)
 
 
-def calibrate(
+def fit(
     table: ImpactTable,
     law: str | ImpactLaw = "rough-coulomb",
-    body: Body | None = None,
+    body: Body | object | None = None,
     free: tuple[str, ...] | None = None,
     *,
     fixed: Mapping[str, float] | None = None,
@@ -154,17 +154,19 @@ def calibrate(
     ----------
     table : ImpactTable
     law : str or ImpactLaw
-        A family name of :data:`mbimpact.fit.parameters.FAMILIES` (``"newton"``, ``"coulomb"``,
+        A family name of :data:`mbimpact.calibration.parameters.FAMILIES` (``"newton"``, ``"coulomb"``,
         ``"rough-newton"``, ``"rough-coulomb"``, ``"compliant"``, ``"rough-compliant"``,
         ``"rough-hunt-crossley"``) or a template law whose values are the first starting point.
-    body : Body, optional
-        What strikes: default the table's ``body`` metadata, else the contact point (:class:`PointMass`).
+    body : Body or Sphere, optional
+        What strikes: a :class:`Ball`, a :class:`PointMass`, or an :class:`mbimpact.Sphere` with a
+        ``mass`` (taken as a solid ball); default the table's ``body`` metadata, else the contact
+        point (:class:`PointMass`).
     free : tuple of str, optional
         Parameters to fit (default: all of the law's, :func:`law_parameters`).
     fixed : mapping, optional
         Values for parameters that are not fitted (default: the template's).
     bounds : mapping of str to (lower, upper), optional
-        Bounds replacing :data:`mbimpact.fit.parameters.PARAMETERS`'.
+        Bounds replacing :data:`mbimpact.calibration.parameters.PARAMETERS`'.
     quantities : tuple of str, optional
         Columns to fit (default: all with data).
     weights : mapping of str to float, optional
@@ -211,7 +213,7 @@ def calibrate(
     if fixed and set(fixed) & set(free):
         raise FitError(f"parameters {sorted(set(fixed) & set(free))} are both free and fixed")
     lo, hi = _bounds(free, bounds)
-    body = body if body is not None else (table.body() or PointMass())
+    body = as_body(body) if body is not None else (table.body() or PointMass())
     cols = table.quantities if quantities is None else tuple(quantities)
     missing = [q for q in cols if q not in table.quantities]
     if missing or not cols:
@@ -312,5 +314,5 @@ def _speeds(table: ImpactTable, law: ImpactLaw, cols: tuple[str, ...], speed: fl
     needs = "spin" in cols or (isinstance(law, RoughLaw) and not law.facet.homogeneous)
     if needs:
         raise FitError(f"{table.name} has no speed column, and {'spin' if 'spin' in cols else repr(law)} depends on "
-                       "the impact speed: give calibrate(..., speed=...)")
+                       "the impact speed: give fit(..., speed=...)")
     return np.ones(len(table))

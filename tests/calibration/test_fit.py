@@ -7,7 +7,7 @@ import pytest
 
 import mbimpact as mbi
 from mbimpact.facets import CompliantFacet
-from mbimpact.fit import FitError, ImpactTable, PointMass, Ball, calibrate, family, predict, with_parameters
+from mbimpact.calibration import FitError, ImpactTable, PointMass, Ball, fit, family, predict, with_parameters
 
 BALL = Ball(radius=0.0025, mass=2.6e-4)
 ANGLES = np.array([3.0, 8.0, 14.0, 20.0, 27.0, 35.0, 45.0, 55.0, 65.0, 75.0])
@@ -39,7 +39,7 @@ def test_fit_recovers_known_parameters(name: str, truth: dict[str, float], colum
                                        starts: int | None) -> None:
     law = with_parameters(family(name), truth)
     table = synthetic(law, seed=11, columns=columns)
-    result = calibrate(table, name, BALL, starts=starts)  # the template's values are the (first) start
+    result = fit(table, name, BALL, starts=starts)  # the template's values are the (first) start
     assert result.success
     for p, value in truth.items():
         # the data's noise sets the tolerance: four standard errors (and the errors are small)
@@ -56,13 +56,13 @@ def test_fit_recovers_a_speed_dependent_facet_law() -> None:
     law = with_parameters(family("rough-hunt-crossley"), truth)
     speeds = np.tile([2.0, 5.0, 10.0, 4.0, 8.0], 2)
     table = synthetic(law, seed=5, columns=("kappa", "et"), speed=speeds)
-    result = calibrate(table, "rough-hunt-crossley", BALL, starts=1)
+    result = fit(table, "rough-hunt-crossley", BALL, starts=1)
     for p, value in truth.items():
         assert abs(result.params[p] - value) < 4 * result.stderr[p], (p, result.params[p], result.stderr[p])
     no_speed = ImpactTable(table.theta_deg, table.columns, None, {}, "no speed")
     with pytest.raises(FitError, match="speed"):
-        calibrate(no_speed, "rough-hunt-crossley", BALL)
-    assert calibrate(no_speed, "rough-hunt-crossley", BALL, speed=5.0, starts=1, max_nfev=3).speed[0] == 5.0
+        fit(no_speed, "rough-hunt-crossley", BALL)
+    assert fit(no_speed, "rough-hunt-crossley", BALL, speed=5.0, starts=1, max_nfev=3).speed[0] == 5.0
 
 
 @pytest.mark.slow
@@ -70,7 +70,7 @@ def test_fit_recovers_the_rough_compliant_law() -> None:
     truth = {"sigma": 0.1, "e": 0.9, "mu": 0.12, "kt": 0.7}
     law = with_parameters(family("rough-compliant"), truth)
     table = synthetic(law, seed=2)
-    result = calibrate(table, "rough-compliant", BALL)
+    result = fit(table, "rough-compliant", BALL)
     for p, value in truth.items():
         assert abs(result.params[p] - value) < 4 * result.stderr[p] + 1e-6
 
@@ -81,7 +81,7 @@ def test_fit_with_fixed_parameters_and_several_starts() -> None:
     template = mbi.RoughLaw(mbi.Smooth(), facet=CompliantFacet(0.9, 0.3, 1.2))
     truth = {"mu": 0.12, "kt": 0.7}
     table = synthetic(with_parameters(template, truth), seed=4, columns=("et", "spin"))
-    result = calibrate(table, template, BALL, free=("mu", "kt"), bounds={"kt": (0.3, 1.5)}, starts=2)
+    result = fit(table, template, BALL, free=("mu", "kt"), bounds={"kt": (0.3, 1.5)}, starts=2)
     assert result.starts == 2 and result.free == ("mu", "kt")
     assert result.params["e"] == 0.9 and "sigma" not in result.params
     for p in ("mu", "kt"):
@@ -93,22 +93,40 @@ def test_fit_with_fixed_parameters_and_several_starts() -> None:
 def test_fit_errors() -> None:
     table = synthetic(mbi.NewtonLaw(0.8), seed=1, columns=("kappa",))
     with pytest.raises(FitError, match="free parameters"):
-        calibrate(table, "coulomb", BALL, free=("sigma",))
+        fit(table, "coulomb", BALL, free=("sigma",))
     with pytest.raises(FitError, match="unknown law family"):
-        calibrate(table, "stronge", BALL)
+        fit(table, "stronge", BALL)
     with pytest.raises(FitError, match="no data"):
-        calibrate(table, "newton", BALL, quantities=("spin",))
+        fit(table, "newton", BALL, quantities=("spin",))
     with pytest.raises(FitError, match="both free and fixed"):
-        calibrate(table, "coulomb", BALL, free=("e", "mu"), fixed={"mu": 0.2})
+        fit(table, "coulomb", BALL, free=("e", "mu"), fixed={"mu": 0.2})
     with pytest.raises(FitError, match="lower < upper"):
-        calibrate(table, "coulomb", BALL, bounds={"mu": (0.5, 0.1)})
+        fit(table, "coulomb", BALL, bounds={"mu": (0.5, 0.1)})
     with pytest.raises(FitError, match="ImpactTable"):
-        calibrate({"kappa": [0.5]}, "newton", BALL)  # type: ignore[arg-type]
+        fit({"kappa": [0.5]}, "newton", BALL)  # type: ignore[arg-type]
     spin = ImpactTable(ANGLES, {"spin": np.linspace(10, 100, len(ANGLES))}, None, {}, "spin only")
     with pytest.raises(FitError, match="speed"):
-        calibrate(spin, "coulomb", BALL)
+        fit(spin, "coulomb", BALL)
     with pytest.raises(FitError, match="does not rotate"):
-        calibrate(spin, "coulomb", PointMass(), speed=3.0)
+        fit(spin, "coulomb", PointMass(), speed=3.0)
     with pytest.raises(FitError, match="cannot vary the roughness"):
-        calibrate(table, mbi.RoughLaw(mbi.Facets(np.array([[0.0, 1.0]]), np.array([1.0])), 0.5), BALL)
+        fit(table, mbi.RoughLaw(mbi.Facets(np.array([[0.0, 1.0]]), np.array([1.0])), 0.5), BALL)
     assert isinstance(FitError("x"), mbi.ImpactError)
+
+
+def test_the_issue_call_form_with_a_collision_sphere_as_the_body() -> None:
+    """``mbi.fit(table, law=..., body=mbi.Sphere(radius=..., mass=...), free=...)``: a Sphere with a
+    mass is the solid Ball of its radius and mass, so both fits are the same."""
+    table = synthetic(mbi.CoulombLaw(0.8, 0.15), seed=3, columns=("kappa", "et", "spin"))
+    as_sphere = mbi.fit(table, law="coulomb", body=mbi.Sphere(radius=0.0025, mass=2.6e-4), free=("e", "mu"))
+    as_ball = mbi.fit(table, law="coulomb", body=BALL, free=("e", "mu"))
+    assert as_sphere.body == BALL
+    np.testing.assert_allclose([as_sphere.params["e"], as_sphere.params["mu"]],
+                               [as_ball.params["e"], as_ball.params["mu"]], rtol=1e-12)
+    assert abs(as_sphere.params["mu"] - 0.15) < 3 * as_sphere.stderr["mu"] + 0.01
+    with pytest.raises(FitError, match="mass"):
+        mbi.fit(table, law="coulomb", body=mbi.Sphere(0.0025))
+    with pytest.raises(FitError, match="Ball, a PointMass or a Sphere"):
+        mbi.fit(table, law="coulomb", body="ball")  # type: ignore[arg-type]
+    with pytest.raises(mbi.ParameterError, match="mass"):
+        mbi.Sphere(0.1, mass=-1.0)

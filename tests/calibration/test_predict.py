@@ -9,7 +9,7 @@ import pytest
 
 import mbimpact as mbi
 from mbimpact.facets import CoulombFacet, HuntCrossleyFacet
-from mbimpact.fit import FitError, PointMass, Ball, predict
+from mbimpact.calibration import FitError, PointMass, Ball, predict
 
 
 def test_sphere_arrays_give_the_sphere_delassus_matrix() -> None:
