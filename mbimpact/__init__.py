@@ -21,11 +21,10 @@ implements is in :mod:`mbimpact.theory`.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .averaging import METHODS as AVERAGING_METHODS
 from .averaging import Averaging
-from .compliant import Resolved, RoughResolved, SimultaneousReport, compare_simultaneous, resolve, resolve_rough
 from .errors import (
     AccuracyWarning,
     CollisionNotFoundError,
@@ -49,24 +48,6 @@ from .errors import (
     TableError,
 )
 from .facets import FACETS, CompliantFacet, CoulombFacet, FacetLaw, HuntCrossleyFacet, NewtonFacet, facet_law
-from .calibration import Ball, Fit, ImpactTable, PointMass, fit
-from .geometry import (
-    Box,
-    Capsule,
-    CollisionModel,
-    Cylinder,
-    Gap,
-    GapArrays,
-    GapModel,
-    GeometryContact,
-    HalfSpace,
-    Mesh,
-    Shape,
-    Sphere,
-    contact_points,
-    gap_model,
-    gaps,
-)
 from .laws import CoulombLaw, ImpactLaw, NewtonLaw, RoughLaw, e_from_k, impact_duration, k_from_e
 from .mechanism import (
     Contact,
@@ -94,20 +75,41 @@ from .roughness import (
     Sawtooth,
     Smooth,
 )
-from .simulation import (
-    PD,
-    ContactEvent,
-    ImpactRecord,
-    Scene,
-    SceneCollision,
-    SceneContact,
-    Surface,
-    Trajectory,
-    load_scene,
-    scene_names,
-    simulate,
-    sweep,
-)
+
+if TYPE_CHECKING:  # loaded on first use: see _ON_USE below
+    from .compliant import Resolved, RoughResolved, SimultaneousReport, compare_simultaneous, resolve, resolve_rough
+    from .calibration import Ball, Fit, ImpactTable, PointMass, fit
+    from .geometry import (
+        Box,
+        Capsule,
+        CollisionModel,
+        Cylinder,
+        Gap,
+        GapArrays,
+        GapModel,
+        GeometryContact,
+        HalfSpace,
+        Mesh,
+        Shape,
+        Sphere,
+        contact_points,
+        gap_model,
+        gaps,
+    )
+    from .simulation import (
+        PD,
+        ContactEvent,
+        ImpactRecord,
+        Scene,
+        SceneCollision,
+        SceneContact,
+        Surface,
+        Trajectory,
+        load_scene,
+        scene_names,
+        simulate,
+        sweep,
+    )
 
 __version__ = "0.2.0"
 
@@ -228,10 +230,33 @@ __all__ = [
 # submodules reached as attributes, imported on first use (the apps pull in matplotlib)
 _LAZY = {"apps": ".apps", "section4": ".simulation.section4", "theory": ".theory"}
 
+# Public names of the subpackages a single impact does not need, imported on first use: the scenes
+# and their simulator, the compliant route, calibration and collision geometry would otherwise
+# double the time of `import mbimpact`. (Keep in step with the TYPE_CHECKING imports above.)
+_ON_USE: dict[str, tuple[str, ...]] = {
+    ".compliant": ("Resolved", "RoughResolved", "SimultaneousReport", "compare_simultaneous", "resolve",
+        "resolve_rough"),
+    ".calibration": ("Ball", "Fit", "ImpactTable", "PointMass", "fit"),
+    ".geometry": ("Box", "Capsule", "CollisionModel", "Cylinder", "Gap", "GapArrays", "GapModel",
+        "GeometryContact", "HalfSpace", "Mesh", "Shape", "Sphere", "contact_points", "gap_model", "gaps"),
+    ".simulation": ("PD", "ContactEvent", "ImpactRecord", "Scene", "SceneCollision", "SceneContact",
+        "Surface", "Trajectory", "load_scene", "scene_names", "simulate", "sweep"),
+}
+_ORIGIN = {name: module for module, names in _ON_USE.items() for name in names}
+
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
         module = importlib.import_module(_LAZY[name], __name__)
         globals()[name] = module
         return module
+    origin = _ORIGIN.get(name)
+    if origin is not None:
+        value = getattr(importlib.import_module(origin, __name__), name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'mbimpact' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_ORIGIN) | set(_LAZY))

@@ -10,6 +10,7 @@ import argparse
 import math
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import ImpactError
@@ -37,6 +38,31 @@ def _positive_int(text: str) -> int:
     return n
 
 
+def _count(hi: int) -> Callable[[str], int]:
+    """An argument type: an integer in [1, ``hi``] (the bound keeps a typo from exhausting memory)."""
+
+    def parse(text: str) -> int:
+        n = _positive_int(text)
+        if n > hi:
+            raise argparse.ArgumentTypeError(f"must be ≤ {hi}, got {n}")
+        return n
+
+    return parse
+
+
+def _within(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> Callable[[str], float]:
+    """An argument type: a finite number in the interval from ``lo`` to ``hi`` (ends open where asked)."""
+    lb, rb = ("(" if lo_open else "["), (")" if hi_open else "]")
+
+    def parse(text: str) -> float:
+        x = _finite(text)
+        if (x <= lo if lo_open else x < lo) or (x >= hi if hi_open else x > hi):
+            raise argparse.ArgumentTypeError(f"must be in {lb}{lo:g}, {hi:g}{rb}, got {text!r}")
+        return x
+
+    return parse
+
+
 def _vector(text: str) -> list[float]:
     """Comma-separated finite numbers, e.g. ``0,-1.2,1.6``."""
     return [_finite(x.strip()) for x in text.split(",")]
@@ -44,6 +70,8 @@ def _vector(text: str) -> list[float]:
 
 def _out_dir(text: str) -> Path:
     """A directory that exists (or can be made) and can be written to."""
+    if "\x00" in text:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a valid path: it contains a null byte")
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} exists and is not a directory")
@@ -58,6 +86,8 @@ def _out_dir(text: str) -> Path:
 
 def _out_file(text: str) -> Path:
     """A file whose directory can be written to (and that is not a directory)."""
+    if "\x00" in text:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a valid path: it contains a null byte")
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is a directory; give a file name")
@@ -112,6 +142,14 @@ def _compare(args: argparse.Namespace) -> int:
         f"rough {type(rough).__name__} alpha={args.alpha:g}": RoughLaw(rough, args.e),
         f"Coulomb mu={args.mu:g} ({args.restitution})": CoulombLaw(args.e, args.mu, args.restitution),
     }
+    for name in args.facet or ():  # the rough law again, with another impact on each facet
+        from ..facets import CompliantFacet, CoulombFacet, HuntCrossleyFacet
+
+        facet = {"coulomb": lambda: CoulombFacet(args.e, args.mu),
+                 "compliant": lambda: CompliantFacet(args.e, args.mu, args.stiffness_ratio),
+                 # e(v) ≈ 1 − α v: the facet restitution is e at the approach speed
+                 "hunt-crossley": lambda: HuntCrossleyFacet((1.0 - args.e) / args.speed)}[name]()
+        laws[f"rough {type(rough).__name__} alpha={args.alpha:g}, {name} facets"] = RoughLaw(rough, facet=facet)
     contact = PointContact(args.frame, normal=np.array([0.0, 0.0, 1.0]), tangent=np.array([1.0, 0.0, 0.0]))
     betas = np.linspace(0.0, args.max_beta, args.steps)
     rows = cmp.compare_laws(mech, q, contact, laws, betas, args.speed)
@@ -190,14 +228,21 @@ def main(argv: list[str] | None = None) -> int:
     cmp.add_argument("--floating", action="store_true", help="free-flyer root for --urdf")
     cmp.add_argument("--frame", default="tool0", help="contact frame (default tool0)")
     cmp.add_argument("--q", type=_vector, help="posture, comma-separated (default: neutral; UR5: over the table)")
-    cmp.add_argument("--speed", type=_finite, default=1.0, help="approach speed of the contact point [m/s]")
+    cmp.add_argument("--speed", type=_within(0.0, 1e100, lo_open=True), default=1.0,
+                     help="approach speed of the contact point [m/s], 0 < speed ≤ 1e100")
     cmp.add_argument("--alpha", type=_finite, default=0.3, help="roughness tilt α of the rough law")
     cmp.add_argument("--planar", action="store_true", help="planar sawtooth instead of a spatial cone")
     cmp.add_argument("--e", type=_finite, default=0.8, help="restitution of all laws")
     cmp.add_argument("--mu", type=_finite, default=0.3, help="Coulomb friction coefficient")
     cmp.add_argument("--restitution", default="energetic", choices=["newton", "poisson", "energetic"])
-    cmp.add_argument("--max-beta", type=_finite, default=85.0, help="largest incidence angle [deg]")
-    cmp.add_argument("--steps", type=_positive_int, default=35, help="number of incidence angles")
+    cmp.add_argument("--facet", action="append", choices=["coulomb", "compliant", "hunt-crossley"],
+                     help="also the rough law with this facet law (repeatable; mu and e as above; hunt-crossley: "
+                          "facet restitution e at the approach speed)")
+    cmp.add_argument("--stiffness-ratio", type=_within(0.0, 1e6, lo_open=True), default=0.8,
+                     help="compliant facets: tangential to normal stiffness ratio (default 0.8)")
+    cmp.add_argument("--max-beta", type=_within(0.0, 90.0, hi_open=True), default=85.0,
+                     help="largest incidence angle [deg], 0 ≤ β < 90")
+    cmp.add_argument("--steps", type=_count(10_000), default=35, help="number of incidence angles, 1 … 10000")
     cmp.add_argument("--out", type=_out_dir, help="directory for compare.csv and compare.png")
     cmp.set_defaults(func=_compare)
     figs = sub.add_parser("figures", help="the paper's Fig. 1 and 2, claims 1°-5°, section 4's stability map")

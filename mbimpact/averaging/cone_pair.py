@@ -90,27 +90,26 @@ def cone_pair(
     cp, sp = (ux / ut, uy / ut) if ut > 0.0 else (1.0, 0.0)
     s, c = math.sin(alpha), math.cos(alpha)
     h = facing_half_width_scalar(s, c, ut, -uz)
+    w = W.tolist()
+    q0, a1, b1, a2, b2 = ring_quadratic_form(s, c, w)
+    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
+    # columns: mᵀu and mᵀWm in the harmonics of θ; M: the three components of m
+    row1 = [s * ut, a1 * cp + b1 * sp, s * cp, s * sp, 0.0]
+    row2 = [0.0, b1 * cp - a1 * sp, -s * sp, s * cp, 0.0]
     if h == math.pi:  # the whole ring faces u: periodic trapezoid rule from ψ
         T, levels = _full_ring(n)
-        sign = None
-    else:  # the facing arc θ ∈ π ± h: Gauss–Legendre
+    else:  # the facing arc θ ∈ π ± h: Gauss–Legendre; cos θ and sin θ change sign (_ARC_SIGN)
         X, unit = _arc(n)
         T = np.cos(h * X - _PHASE)
         levels = h * unit
-        sign = _ARC_SIGN
-    q0, a1, b1, a2, b2 = ring_quadratic_form(s, c, W)
-    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
-    # columns: mᵀu and mᵀWm in the harmonics of θ; M: the three components of m
-    coef = np.array([[c * uz, q0, 0.0, 0.0, c],
-                     [s * ut, a1 * cp + b1 * sp, s * cp, s * sp, 0.0],
-                     [0.0, b1 * cp - a1 * sp, -s * sp, s * cp, 0.0],
+        row1, row2 = [-x for x in row1], [-x for x in row2]
+    coef = np.array([[c * uz, q0, 0.0, 0.0, c], row1, row2,
                      [0.0, a2 * c2 + b2 * s2, 0.0, 0.0, 0.0],
                      [0.0, b2 * c2 - a2 * s2, 0.0, 0.0, 0.0]])
-    if sign is not None:
-        coef *= sign[:, None]
-    values = T @ coef[:, :2]
+    # (ndarray.dot rather than @ here: the same BLAS calls, without the generalised ufunc's overhead)
+    values = T.dot(coef[:, :2])
     su, q = np.minimum(values[:, 0], 0.0), values[:, 1]
-    if not q.min() > DEGENERATE * (W[0, 0] + W[1, 1] + W[2, 2]):
+    if not np.minimum.reduce(q) > DEGENERATE * (w[0][0] + w[1][1] + w[2][2]):  # q.min() without its Python wrapper
         return None
     if kernel_powers(flux)[1]:  # configuration: w = −mᵀu / √q, kernel (mᵀu)² / q^{3/2}
         r = 1.0 / np.sqrt(q)
@@ -119,8 +118,8 @@ def cone_pair(
     else:  # physical: w = −mᵀu, kernel (mᵀu)² / q
         weight = -su
         kernel = su * su / q
-    N = ((levels * kernel) @ T) @ coef[:, 2:]
-    return N, levels @ weight
+    N = (levels * kernel).dot(T).dot(coef[:, 2:])
+    return N, levels.dot(weight)
 
 
 class ConePair(Averaging):
@@ -142,10 +141,16 @@ class ConePair(Averaging):
         if 2 * n > spec.max_nodes or len(U) != 1:
             return None
         pair = cone_pair(spec.roughness.alpha, W, U[0], n, spec.flux)  # type: ignore[attr-defined]
-        if pair is None or not pair[1].min() > 0.0:
+        if pair is None:
             return None
-        P = (1.0 + spec.e) * pair[0] / pair[1][:, None]
-        (c0, c1, c2), (f0, f1, f2) = (P @ W).tolist()
+        # the impulses of both levels, P = (1+e) N / D, in floats (2 × 3 numbers); W P by the product
+        D0, D1 = pair[1].tolist()
+        if not (D0 > 0.0 and D1 > 0.0):
+            return None
+        k = 1.0 + spec.e
+        (n0, n1, n2), (m0, m1, m2) = pair[0].tolist()
+        P = np.array([[k * n0 / D0, k * n1 / D0, k * n2 / D0], [k * m0 / D1, k * m1 / D1, k * m2 / D1]])
+        (c0, c1, c2), (f0, f1, f2) = P.dot(W).tolist()
         err = math.sqrt(((f0 - c0) ** 2 + (f1 - c1) ** 2 + (f2 - c2) ** 2) / (f0 * f0 + f1 * f1 + f2 * f2))
         if not err <= max(spec.rtol, 100 * EPS * math.sqrt(2 * n)):  # the floor of the adaptive rule
             return None

@@ -92,7 +92,9 @@ def peaked_rule(spec: AveragingSpec, W: NDArray[np.float64], peaked: float, scre
         if W.shape == (2, 2):  # det / tr² ≤ λ₁ / λ₂, the square of the width of the peak
             if spread_bound(W) > peaked**2:
                 return None
-        elif W.shape != (3, 3) or eigen_ratio(W) > 4 * peaked**2:
+        # λ_min / λ_max ≥ 4 det W / tr(W)³ (the other two eigenvalues multiply to at most (tr W / 2)²):
+        # the cheaper bound rules out most W before the closed-form eigenvalues are needed
+        elif W.shape != (3, 3) or spread_bound(W) > peaked**2 or eigen_ratio(W) > 4 * peaked**2:
             return None
     return spec.roughness.graded_rule(W, peaked)
 

@@ -77,11 +77,11 @@ def incidence_split(U: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.arctan2(np.abs(U[:, -1]), np.linalg.norm(U[:, :-1], axis=1))
 
 
-def ring_quadratic_form(s: Any, c: Any, W: NDArray[np.float64]) -> tuple[Any, Any, Any, Any, Any]:
+def ring_quadratic_form(s: Any, c: Any, W: NDArray[np.float64] | list[list[float]]) -> tuple[Any, Any, Any, Any, Any]:
     """q(φ) = mᵀWm on the ring of tilt α (s = sin α, c = cos α; floats or arrays) as
     q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ: the coefficients (q₀, a₁, b₁, a₂, b₂)
-    for a local-frame Delassus matrix W (3, 3)."""
-    w = W.tolist()
+    for a local-frame Delassus matrix W (3, 3), an array or its ``tolist()``."""
+    w = W if isinstance(W, list) else W.tolist()
     return (0.5 * s * s * (w[0][0] + w[1][1]) + c * c * w[2][2], 2 * s * c * w[0][2], 2 * s * c * w[1][2],
             0.5 * s * s * (w[0][0] - w[1][1]), s * s * w[0][1])
 

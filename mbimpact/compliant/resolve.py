@@ -38,7 +38,10 @@ from ..mechanism.mechanism import Mechanism
 from ..laws.restitution import impact_duration, k_from_e
 from ..roughness.base import check_normals
 
-__all__ = ["Resolved", "resolve"]
+__all__ = ["Resolved", "resolve", "check_mechanism", "check_contacts"]
+
+#: Largest velocity entry :func:`resolve` integrates: the forces M² f (M ≤ 1e9) stay far inside the float range.
+MAX_SPEED = 1e100
 
 # stiff-capable integrators of scipy.integrate.solve_ivp
 _METHODS = ("LSODA", "Radau", "BDF")
@@ -95,10 +98,56 @@ class Resolved:
         return np.maximum(-self.f.min(axis=1), 0.0)
 
 
+class _OutOfEvaluations(Exception):
+    """Raised by the right-hand side of :func:`resolve` past ``max_evaluations`` (with where it was)."""
+
+    def __init__(self, t: float, y: NDArray[np.float64]) -> None:
+        super().__init__(t)
+        self.t, self.y = float(t), np.array(y, dtype=float)
+
+
+def check_mechanism(mech: object) -> Mechanism:
+    """``mech`` if it is a :class:`Mechanism` (a :class:`ParameterError` naming what it got otherwise)."""
+    if not isinstance(mech, Mechanism):
+        raise ParameterError(f"mech must be an mbimpact.Mechanism, got {type(mech).__name__}")
+    return mech
+
+
+def check_contacts(contacts: object) -> list[PointContact]:
+    """One :class:`PointContact` or a sequence of them, as a list (at least one).
+
+    Raises
+    ------
+    ParameterError
+        Anything else (a string, None, a contact of another kind).
+    ShapeError
+        An empty sequence.
+    """
+    if isinstance(contacts, PointContact):
+        return [contacts]
+    try:
+        out = list(contacts)  # type: ignore[call-overload]
+    except TypeError:
+        out = None
+    if out is not None:
+        bad = [type(c).__name__ for c in out if not isinstance(c, PointContact)]
+        if not bad:
+            if not out:
+                raise ShapeError("at least one contact is needed")
+            return out
+        what = f"a sequence holding {bad[0]}"
+    else:
+        what = type(contacts).__name__
+    raise ParameterError(f"contacts must be a PointContact or a list of PointContact, got {what}")
+
+
 def _per_contact(name: str, x: float | Sequence[float] | None, count: int) -> list[float | None]:
-    if x is None or np.isscalar(x):
+    if x is None or np.isscalar(x) or (isinstance(x, np.ndarray) and x.ndim == 0):
         return [x] * count  # type: ignore[list-item]
-    vals: list[float | None] = list(x)  # type: ignore[arg-type]
+    try:
+        vals: list[float | None] = list(x)  # type: ignore[arg-type]
+    except TypeError:
+        raise ParameterError(f"{name} must be a number or a sequence of {count} numbers, got {x!r}") from None
     if len(vals) != count:
         raise ShapeError(f"{name} has {len(vals)} entries for {count} contacts")
     return vals
@@ -148,7 +197,8 @@ def resolve(
     method : str
         ``scipy.integrate.solve_ivp`` method; stiff-capable "LSODA" (default) or "Radau".
     t_max : float, optional
-        Integration limit; default 50 π / min(M) (k = 1 never separates: the limit is reported).
+        Integration limit, ≥ 1e-3 π / max(M); default 50 π / min(M) (k = 1 never separates: the
+        limit is reported).
     surface_points : array_like, shape (c, 3), optional
         A point of each contact's surface plane; then f(q⁰) must be 0 (checked).
     max_evaluations : int
@@ -165,8 +215,11 @@ def resolve(
     Raises
     ------
     ParameterError
-        M outside [1e-3, 1e9], k or e outside [0, 1], both k and e, rtol outside [1e-13, 1e-3],
-        t_max ≤ 0, an unknown dynamics or method.
+        ``mech`` not a :class:`Mechanism`, ``contacts`` not point contacts, M outside [1e-3, 1e9],
+        k or e outside [0, 1], both k and e, rtol outside [1e-13, 1e-3], t_max below 1e-3 π / max(M),
+        ``gravity`` not a bool, an unknown dynamics or method, velocity entries above :data:`MAX_SPEED`.
+    ShapeError, NonFiniteError
+        Invalid q, v, facets or surface points.
     NoImpactError
         No contact approaches its surface.
     NoFacingFacetError
@@ -177,21 +230,26 @@ def resolve(
     """
     from scipy.integrate import solve_ivp  # deferred: scipy.integrate costs 0.1 s to import
 
-    contacts = [contacts] if isinstance(contacts, PointContact) else list(contacts)
+    check_mechanism(mech)
+    contacts = check_contacts(contacts)
     c = len(contacts)
-    if c == 0:
-        raise ShapeError("at least one contact is needed")
     q0, v0 = mech.check_state(q, v)
+    if float(np.abs(v0).max()) > MAX_SPEED:
+        raise ParameterError(f"resolve takes velocities up to {MAX_SPEED:g} (the forces M² f of the integration "
+                             f"must stay finite), got |v| up to {float(np.abs(v0).max()):.3g}")
     # M sets the time scale π/M of a facet impact: beyond these bounds the times underflow or the
     # integration of the full dynamics over ~50π/M runs for ever
     Ms = [as_scalar("M", m, 1e-3, 1e9) for m in cast(list[float], _per_contact("M", M, c))]
-    if dynamics not in ("full", "impact"):
+    if not isinstance(dynamics, str) or dynamics not in ("full", "impact"):
         raise ParameterError(f"dynamics must be 'full' (Pinocchio ABA) or 'impact' (A and J frozen, (2.4)), got {dynamics!r}")
-    if method not in _METHODS:
+    if not isinstance(gravity, bool):
+        raise ParameterError(f"gravity must be True or False, got {gravity!r}")
+    if not isinstance(method, str) or method not in _METHODS:
         raise ParameterError(f"method must be one of the stiff integrators {', '.join(_METHODS)}, got {method!r}")
     rtol = as_scalar("rtol", rtol, 1e-13, 1e-3)
     if t_max is not None:
-        t_max = as_scalar("t_max", t_max, 0.0, math.inf, lo_open=True)
+        # from a thousandth of the shortest facet duration π/M: a shorter horizon resolves nothing
+        t_max = as_scalar("t_max", t_max, 1e-3 * math.pi / max(Ms), math.inf)
     max_evaluations = as_count("max_evaluations", max_evaluations, 100, 10**9)
     if k is not None and e is not None:
         raise ParameterError("give at most one of k (damping ratio) or e (restitution)")
@@ -202,7 +260,11 @@ def resolve(
     if facets is None:
         local = np.tile([0.0, 0.0, 1.0], (c, 1))
     else:
-        local = as_array("facets", facets, np.ndim(facets))
+        try:
+            ndim = np.ndim(facets)
+        except ValueError:  # ragged nested sequences: as_array names the problem
+            ndim = 2
+        local = as_array("facets", facets, ndim)
         local = np.tile(local, (c, 1)) if local.ndim == 1 else local
         if local.shape != (c, 3):
             raise ShapeError(f"facets must have shape (3,) or ({c}, 3), got {local.shape}")
@@ -263,7 +325,13 @@ def resolve(
     def forces(f: NDArray[np.float64], fdot: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.where(f < 0.0, -(Mv * Mv * f + 2.0 * kv * Mv * fdot), 0.0)
 
+    evaluations = 0
+
     def rhs(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        nonlocal evaluations
+        evaluations += 1
+        if evaluations > max_evaluations:  # checked here: one call of the integrator may take any number
+            raise _OutOfEvaluations(t, y)
         qc, f, G, dq = state(y)
         vel = y[nv: 2 * nv]
         lam = forces(f, G @ vel)
@@ -302,13 +370,15 @@ def resolve(
 
     def advance(t1: float, events: list) -> object:
         nonlocal nfev, t0, y
-        sol = solve_ivp(rhs, (t0, t1), y, method=method, events=events or None, rtol=rtol, atol=atol,
-                        first_step=min(1e-3 / float(Mv.max()), (t1 - t0) / 4))
-        nfev += sol.nfev
-        if nfev > max_evaluations:
+        try:
+            sol = solve_ivp(rhs, (t0, t1), y, method=method, events=events or None, rtol=rtol, atol=atol,
+                            first_step=min(1e-3 / float(Mv.max()), (t1 - t0) / 4) or None)
+        except _OutOfEvaluations as stop:
             raise IntegrationError(f"the compliant impact needed more than {max_evaluations} evaluations; stopped at "
-                                   f"t = {t0:.6g} of {t_end:.6g} (τ = {float(tau_facet.min()):.3g}), penetrations "
-                                   f"{np.round(-state(sol.y[:, -1])[1], 12).tolist()}")
+                                   f"t = {stop.t:.6g} of {t_end:.6g} (τ = {float(tau_facet.min()):.3g}), penetrations "
+                                   f"{np.round(-state(stop.y)[1], 12).tolist()}; dynamics='impact' (A and J frozen) "
+                                   "resolves a stiff impact in far fewer") from None
+        nfev = evaluations
         if sol.status == -1:
             raise IntegrationError(f"integration stopped at t = {sol.t[-1]:.6g} of {t_end:.6g}: {sol.message}")
         ts.extend(sol.t[1:].tolist())

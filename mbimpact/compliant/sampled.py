@@ -9,13 +9,19 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..averaging.kernels import check_flux
+from ..common.geometry import scaled_norm
+from ..common.validation import as_count
 from ..mechanism.contact import PointContact
-from ..errors import NoFacingFacetError, ParameterError
+from ..errors import NoFacingFacetError, ParameterError, RoughnessError
 from ..mechanism.mechanism import Mechanism
-from .resolve import resolve
+from .resolve import check_mechanism, resolve
 from ..roughness.base import Roughness
 
 __all__ = ["RoughResolved", "resolve_rough"]
+
+#: Facets drawn at most: each is an impact resolved in time (~10 ms), so 10⁵ already take minutes.
+MAX_SAMPLES = 100_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,13 +66,30 @@ def resolve_rough(
     weighted by the contact point's sweep rate −mᵀu (``"physical"``) or its A-metric flux
     −(N, v₋) (``"configuration"``), as in
     (2.8). Keyword arguments go to :func:`resolve` (M, k or e, dynamics, ...).
+
+    Raises
+    ------
+    ParameterError
+        ``mech`` not a :class:`Mechanism`, ``contact`` not a :class:`PointContact`, ``samples``
+        outside [2, :data:`MAX_SAMPLES`], a negative ``seed`` or an unknown ``flux``.
+    RoughnessError
+        ``roughness`` is not a spatial roughness measure.
     """
+    check_mechanism(mech)
+    if not isinstance(contact, PointContact):
+        raise ParameterError(f"contact must be an mbimpact.PointContact, got {type(contact).__name__}")
+    if not isinstance(roughness, Roughness):
+        raise RoughnessError(f"roughness must be a Roughness measure (Cone, GaussianSlopes, ...), "
+                             f"got {type(roughness).__name__}")
     if roughness.dim != 3:
-        raise ParameterError(f"resolve_rough needs a spatial roughness measure, got {roughness!r}")
-    if int(samples) < 2:
-        raise ParameterError(f"samples must be ≥ 2, got {samples}")
+        raise RoughnessError(f"resolve_rough needs a spatial roughness measure, got {roughness!r}")
+    samples = as_count("samples", samples, 2, MAX_SAMPLES)
+    seed = as_count("seed", seed, 0, 2**63 - 1)
+    if not isinstance(flux, str):
+        raise ParameterError(f"flux must be 'physical' or 'configuration', got {flux!r}")
+    flux = check_flux(flux)
     q0, v0 = mech.check_state(q, v)
-    m_local = roughness.sample(np.random.default_rng(seed), int(samples))
+    m_local = roughness.sample(np.random.default_rng(seed), samples)
     R = contact.basis()
     J = mech.point_jacobian(q0, contact.frame, contact.point)
     A = mech.mass_matrix(q0)
@@ -90,5 +113,5 @@ def resolve_rough(
     mean = (w @ X) / w.sum()
     n = len(w)
     resid = w[:, None] * (X - mean)
-    se = np.sqrt((resid**2).sum(axis=0) / (n - 1) / n) / (w.sum() / n)
+    se = scaled_norm(resid, axis=0) / math.sqrt((n - 1) * n) / (w.sum() / n)  # no overflow of the squares
     return RoughResolved(v0.copy(), v0 + mean, 1.96 * se, n)

@@ -9,10 +9,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.validation import as_count, as_scalar
+from ..errors import ParameterError
+from ..laws.base import ImpactLaw
 from ..mechanism.contact import PointContact
 from ..mechanism.impact import impact
 from ..mechanism.mechanism import Mechanism
-from .resolve import Resolved, resolve
+from .resolve import Resolved, check_contacts, check_mechanism, resolve
 
 __all__ = ["SimultaneousReport", "compare_simultaneous"]
 
@@ -54,16 +57,29 @@ def compare_simultaneous(
     with the compliant resolution (the several-constraint case of the paper's ref. [7]).
 
     ``law`` is an impact law (e.g. ``NewtonLaw(e)``); keyword arguments go to :func:`resolve`.
+
+    Raises
+    ------
+    ParameterError
+        ``mech``, ``contacts`` or ``law`` of the wrong kind, ``tol`` < 0 or ``max_rounds`` outside
+        [1, 10⁷]; and everything :func:`resolve` raises.
     """
+    check_mechanism(mech)
+    contacts = check_contacts(contacts)
+    if not isinstance(law, ImpactLaw):
+        raise ParameterError(f"law must be an impact law (NewtonLaw, RoughLaw, CoulombLaw, ...), "
+                             f"got {type(law).__name__}")
+    tol = as_scalar("tol", tol, 0.0, math.inf)
+    max_rounds = as_count("max_rounds", max_rounds, 1, 10**7)
     q0, v0 = mech.check_state(q, v)
-    res = resolve(mech, q0, v0, list(contacts), **kwargs)  # type: ignore[arg-type]
+    res = resolve(mech, q0, v0, contacts, **kwargs)  # type: ignore[arg-type]
     vs = v0.copy()
-    for _ in range(int(max_rounds)):
+    for _ in range(max_rounds):
         rates = [ct.normal @ mech.point_jacobian(q0, ct.frame, ct.point) @ vs for ct in contacts]
         worst = int(np.argmin(rates))
         if rates[worst] >= -1e-12 * max(1.0, float(np.abs(v0).max())):
             break
-        vs = impact(mech, q0, vs, contacts[worst], law).v_plus  # type: ignore[arg-type]
+        vs = impact(mech, q0, vs, contacts[worst], law).v_plus
     A = mech.mass_matrix(q0)
     diff = res.v_plus - vs
     rel = math.sqrt(float(diff @ A @ diff) / max(float(v0 @ A @ v0), 1e-300))

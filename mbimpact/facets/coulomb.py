@@ -39,10 +39,20 @@ from ..common.validation import as_count, as_scalar
 from ..errors import IntegrationError, ParameterError
 from .base import FacetLaw
 
-__all__ = ["CoulombFacet", "planar_coulomb", "spatial_coulomb", "RESTITUTIONS"]
+__all__ = ["CoulombFacet", "planar_coulomb", "spatial_coulomb", "RESTITUTIONS", "MAX_FACET_MU", "MIN_FACET_MU", "MAX_STEPS"]
 
 Restitution = Literal["newton", "poisson", "energetic"]
 RESTITUTIONS: tuple[Restitution, ...] = ("energetic", "poisson", "newton")
+
+#: Friction coefficients of a facet: above 1e6 every facet that can stick sticks (friction is infinite
+#: to rounding, and larger values overflow the impulse steps); below 1e-12 friction's impulse is far
+#: below the quadrature's accuracy and μ acts as 0 (Newton's facet law).
+MAX_FACET_MU = 1e6
+MIN_FACET_MU = 1e-12
+
+#: Impulse steps per unit of normal impulse: each facet takes up to 100 × steps of them (10⁴ steps
+#: already resolve the friction impulse to 1e-5).
+MAX_STEPS = 10_000
 
 
 @dataclass(frozen=True)
@@ -54,13 +64,14 @@ class CoulombFacet(FacetLaw):
     e : float
         Restitution in [0, 1], meaning set by ``restitution``.
     mu : float
-        Coulomb friction coefficient of the facet, ≥ 0. With μ = 0 the facet impact is
-        Newton's (:class:`NewtonFacet`) for every hypothesis.
+        Coulomb friction coefficient of the facet, in [0, 1e6] (:data:`MAX_FACET_MU`). With μ = 0
+        the facet impact is Newton's (:class:`NewtonFacet`) for every hypothesis; μ below 1e-12
+        (:data:`MIN_FACET_MU`) acts as 0.
     restitution : {"energetic", "poisson", "newton"}
         End-of-impact hypothesis (see :class:`mbimpact.CoulombLaw`).
     steps : int
         Spatial facets only: impulse steps per unit of the frictionless normal impulse
-        −u_n / W_nn (:func:`spatial_coulomb`).
+        −u_n / W_nn (:func:`spatial_coulomb`), 4 … 10⁴ (:data:`MAX_STEPS`).
     """
 
     e: float
@@ -71,10 +82,11 @@ class CoulombFacet(FacetLaw):
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "e", as_scalar("e", self.e, 0.0, 1.0))
-        object.__setattr__(self, "mu", as_scalar("mu", self.mu, 0.0, math.inf))
-        if self.restitution not in RESTITUTIONS:
+        mu = as_scalar("mu", self.mu, 0.0, MAX_FACET_MU)
+        object.__setattr__(self, "mu", 0.0 if mu < MIN_FACET_MU else mu)
+        if not isinstance(self.restitution, str) or self.restitution not in RESTITUTIONS:
             raise ParameterError(f"restitution must be one of {', '.join(RESTITUTIONS)}; got {self.restitution!r}")
-        object.__setattr__(self, "steps", as_count("steps", self.steps, 4, 1_000_000))
+        object.__setattr__(self, "steps", as_count("steps", self.steps, 4, MAX_STEPS))
 
     def __repr__(self) -> str:
         extra = "" if self.restitution == "energetic" else f", restitution={self.restitution!r}"

@@ -67,7 +67,9 @@ class HuntCrossleyFacet(FacetLaw):
 
     def restitution(self, speed: ArrayLike) -> NDArray[np.float64]:
         """e(v) at normal impact speeds v ≥ 0 (m/s), any shape."""
-        return hunt_crossley_restitution(1.5 * self.alpha * np.asarray(speed, dtype=float))
+        with np.errstate(over="ignore"):  # α v beyond the float range: e = 0, the limit x → ∞
+            x = 1.5 * self.alpha * np.asarray(speed, dtype=float)
+        return hunt_crossley_restitution(x)
 
     def facet_impulse(self, W: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         P = np.zeros_like(u)
@@ -103,7 +105,8 @@ def hunt_crossley_restitution(x: ArrayLike) -> NDArray[np.float64]:
     e → 1 − 2x/3 as x → 0 and e → 0 as x → ∞.
     """
     x = np.asarray(x, dtype=float)
-    flat = np.atleast_1d(x).ravel()
+    infinite = np.isinf(np.atleast_1d(x).ravel())
+    flat = np.minimum(np.atleast_1d(x).ravel(), 1e300)  # e(1e300) = 0 to rounding, as e(∞)
     lhs = _x_minus_log1p(flat)
     lo = np.zeros_like(flat)
     hi = np.where(flat > 1.0, 1.0 / np.where(flat > 1.0, flat, 1.0), 1.0)
@@ -114,5 +117,5 @@ def hunt_crossley_restitution(x: ArrayLike) -> NDArray[np.float64]:
         hi = np.where(big, mid, hi)
         lo = np.where(big, lo, mid)
     e = 0.5 * (lo + hi)
-    e = np.where(flat == 0.0, 1.0, e)
+    e = np.where(flat == 0.0, 1.0, np.where(infinite, 0.0, e))
     return e.reshape(x.shape)

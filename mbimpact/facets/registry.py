@@ -27,7 +27,7 @@ def facet_law(name: str, **params: Any) -> FacetLaw:
     ParameterError
         An unknown name, or parameters the law does not take.
     """
-    if name not in FACETS:
+    if not isinstance(name, str) or name not in FACETS:
         raise ParameterError(f"unknown facet law {name!r}; valid: {', '.join(repr(n) for n in FACETS)}")
     try:
         return FACETS[name](**params)

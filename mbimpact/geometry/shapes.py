@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.geometry import scaled_norm
 from ..common.validation import as_array, as_scalar
 from ..errors import GeometryError, ParameterError, ShapeError
 
@@ -44,6 +45,10 @@ def as_rotation(name: str, R: ArrayLike) -> NDArray[np.float64]:
         NaN or infinity.
     """
     a = as_array(name, R, 2, (3, 3))
+    big = float(np.abs(a).max())
+    if big > 2.0:  # the entries of a rotation lie in [−1, 1]: refused before RᵀR or det(R) overflow
+        raise ShapeError(f"{name} must be a rotation matrix (orthonormal, det +1); it has an entry of "
+                         f"magnitude {big:.3g} > 1")
     err = float(np.max(np.abs(a.T @ a - np.eye(3))))
     if err > 1e-9 or np.linalg.det(a) < 0.0:
         raise ShapeError(f"{name} must be a rotation matrix (orthonormal, det +1); "
@@ -179,7 +184,7 @@ class HalfSpace(Shape):
     def __post_init__(self) -> None:
         self._check_name()
         n = as_array("normal", self.normal, 1, (3,))
-        norm = float(np.linalg.norm(n))
+        norm = float(scaled_norm(n))  # no overflow of the squares
         if norm == 0.0:
             raise ShapeError("normal is the zero vector; a half-space needs a direction")
         offset = as_scalar("offset", self.offset, -math.inf, math.inf, lo_open=True, hi_open=True)

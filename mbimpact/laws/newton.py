@@ -40,18 +40,23 @@ class NewtonLaw(ImpactLaw):
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with
         # the factor of A (what pin.impulseDynamics does), not the whole Delassus matrix
+        # (ndarray.dot rather than @: the same BLAS call, without the generalised ufunc's overhead)
         J, n0 = metric.J, R[:, -1]
-        jn = n0 @ J
-        un = float(jn @ v)
+        jn = n0.dot(J)
+        un = float(jn.dot(v))
         # degenerate cases (no approach, n⁰ out of reach, rank-deficient J) take the
-        # general route, which names the error or reports the minimum-norm impulse
-        if not un < 0.0 or not float(jn @ jn) > 1e-8 * float(np.vdot(J, J)) or spread_bound(J @ J.T) <= 1e-12:
+        # general route, which names the error or reports the minimum-norm impulse;
+        # |J|² = tr(J Jᵀ), and the rank test reads the same Gram matrix (in floats)
+        if not un < 0.0:
             return super().apply_metric(metric, v, R)
-        y = metric.solve(jn)
-        Pn = -(1.0 + self.e) * un / float(jn @ y)
+        gram = J.dot(J.T).tolist()
+        if not float(jn.dot(jn)) > 1e-8 * sum([gram[i][i] for i in range(len(gram))]) or spread_bound(gram) <= 1e-12:
+            return super().apply_metric(metric, v, R)
+        y = metric.solver(jn)
+        Pn = -(1.0 + self.e) * un / float(jn.dot(y))
         dv = Pn * y
-        u = J @ v
+        u = J.dot(v)
         return ImpactResult(
-            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=Pn * n0, u_minus=u, u_plus=u + J @ dv,
+            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=Pn * n0, u_minus=u, u_plus=u + J.dot(dv),
             n0=n0.copy(), A=metric.A, J=J, law=self,
         )

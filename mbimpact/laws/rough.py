@@ -163,6 +163,7 @@ class RoughLaw(ImpactLaw):
         self.e = e_value
         self.facet = facet
         self.method = _method(method, self.spec)
+        self._auto: tuple[AveragingSpec, tuple[Averaging, ...]] | None = None  # see _auto_methods
         if not isinstance(repeat, bool):
             raise ParameterError(f"repeat must be True or False, got {repeat!r}")
         self.repeat = repeat
@@ -238,6 +239,10 @@ class RoughLaw(ImpactLaw):
             speed = big * np.linalg.norm(U / big[:, None], axis=1)  # as ImpactLaw.impulses computes it
         return _AtSpeeds(self, speed).impulses(metric, U, R)
 
+    def _single_route(self) -> bool:
+        # a speed-dependent facet law needs the physical speeds of impulses() above
+        return self.facet.homogeneous and type(self).impulses is RoughLaw.impulses
+
     def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         return self.contact_impulses_at(W, U, None)
 
@@ -270,15 +275,25 @@ class RoughLaw(ImpactLaw):
             if out is None:
                 raise ParameterError(f"{self!r}: {self.method.reason(spec)}")
             return _labelled(out, self.facet) if general else out
-        for name in AUTO_ORDER:
-            method = _INSTANCES[name]
-            if general and not _any_facet(method):
-                continue
-            if method.supports(spec) and method.worthwhile(spec, W, U):
+        for method in self._auto_methods():
+            if method.worthwhile(spec, W, U):
                 out = method.average(spec, W, U)
                 if out is not None:
                     return _labelled(out, self.facet) if general else out
         raise AssertionError(f"no averaging method accepted {self!r}")  # pragma: no cover — adaptive always does
+
+    def _auto_methods(self) -> tuple[Averaging, ...]:
+        """The methods of :data:`~mbimpact.averaging.AUTO_ORDER` that support this law's measure and
+        facet law, in order: they depend on the spec alone, so they are sorted out once per spec."""
+        cached = getattr(self, "_auto", None)
+        if cached is not None and cached[0] is self.spec:
+            return cached[1]
+        spec = self.spec
+        general = general_facets(spec)
+        methods = tuple(m for m in (_INSTANCES[name] for name in AUTO_ORDER)
+                        if (not general or _any_facet(m)) and m.supports(spec))
+        self._auto = (spec, methods)
+        return methods
 
     def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], first: ContactImpulses,
                   physical: NDArray[np.float64] | None = None) -> ContactImpulses:

@@ -9,6 +9,8 @@ collision geometry is loaded where a contact needs it.
 from __future__ import annotations
 
 import itertools
+import math
+import os
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +53,10 @@ class MassFactor:
     token: int
     valid: bool
 
+    def __init__(self, mechanism: Mechanism, q: NDArray[np.float64], token: int, valid: bool) -> None:
+        # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
+        self.__dict__.update(mechanism=mechanism, q=q, token=token, valid=valid)
+
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """A⁻¹ b for b of shape (nv,) or (nv, k)."""
         mech = self.mechanism
@@ -61,8 +67,11 @@ class MassFactor:
             local.token = self.token
         if b.ndim == 1:
             return pin.cholesky.solve(mech.model, local.data, b)
-        return np.column_stack([pin.cholesky.solve(mech.model, local.data, np.ascontiguousarray(col))
-                                for col in b.T]) if b.shape[1] else np.zeros(b.shape)
+        if not b.shape[1]:
+            return np.zeros(b.shape)
+        # one solve per column, assembled in one copy (what np.column_stack does, without its overhead)
+        model, data, solve, cols = mech.model, local.data, pin.cholesky.solve, b.T
+        return np.array([solve(model, data, cols[i]) for i in range(len(cols))]).T.copy()
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,6 +93,7 @@ class Mechanism:
     source: Path | None = None
     _local: threading.local = field(init=False, repr=False)
     _frame_ids: dict[str, int] = field(init=False, repr=False)
+    _dims: tuple[int, int] = field(init=False, repr=False)  # (nq, nv), read on every call
 
     def __post_init__(self) -> None:
         if not isinstance(self.model, pin.Model):
@@ -92,6 +102,7 @@ class Mechanism:
             raise ParameterError(f"{self.name} has no degree of freedom (nv = 0): nothing can move")
         object.__setattr__(self, "_local", threading.local())
         object.__setattr__(self, "_frame_ids", {})
+        object.__setattr__(self, "_dims", (int(self.model.nq), int(self.model.nv)))
 
     def workspace(self) -> threading.local:
         """This thread's workspace (``.data``: a Pinocchio Data): a sequence of calls (crba,
@@ -201,7 +212,7 @@ class Mechanism:
         """Validate ``floating`` and ``path``, then build the model, naming parse errors."""
         if not isinstance(floating, bool):
             raise ParameterError(f"floating must be True or False, got {floating!r}")
-        path = Path(path)
+        path = _file_path(kind, path)
         if not path.is_file():
             raise RobotNotFoundError(f"{kind} file {str(path)!r} not found")
         try:
@@ -214,12 +225,12 @@ class Mechanism:
     @property
     def nq(self) -> int:
         """Configuration dimension."""
-        return int(self.model.nq)
+        return self._dims[0]
 
     @property
     def nv(self) -> int:
         """Velocity (tangent) dimension."""
-        return int(self.model.nv)
+        return self._dims[1]
 
     @property
     def frame_names(self) -> list[str]:
@@ -237,7 +248,7 @@ class Mechanism:
         FrameNotFoundError
             No frame of that name (the message lists close matches).
         """
-        fid = self._frame_ids.get(frame)
+        fid = self._frame_ids.get(frame) if isinstance(frame, str) else None
         if fid is not None:
             return fid
         if not isinstance(frame, str):
@@ -275,9 +286,10 @@ class Mechanism:
         ------
         ShapeError, NonFiniteError, ParameterError
         """
-        q = as_vector("q", q, self.nq)
+        nq, nv = self._dims
+        q = as_vector("q", q, nq)
         # only quaternion and unit-complex joints (nq > nv) have a norm to check
-        if self.model.nq != self.model.nv and not pin.isNormalized(self.model, q, 1e-9):
+        if nq != nv and not pin.isNormalized(self.model, q, 1e-9):
             raise ParameterError(
                 "q is not a valid configuration: a quaternion or unit-complex block is not normalised; "
                 "use pinocchio.normalize(model, q)"
@@ -286,7 +298,7 @@ class Mechanism:
 
     def check_state(self, q: ArrayLike, v: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Validate ``q`` (nq,) and ``v`` (nv,); quaternions must be normalised."""
-        return self.check_configuration(q), as_vector("v", v, self.nv)
+        return self.check_configuration(q), as_vector("v", v, self._dims[1])
 
     # ------------------------------------------------------------ dynamics
     def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
@@ -300,11 +312,14 @@ class Mechanism:
         workspace, and :meth:`MassFactor.solve` rebuilds it if that was reused.
         """
         local = self.workspace()
-        A = pin.crba(self.model, local.data, q).copy()
-        pin.cholesky.decompose(self.model, local.data)
+        model, data = self.model, local.data
+        A = pin.crba(model, data, q).copy()
+        pin.cholesky.decompose(model, data)
         local.token = token = next(_TOKENS)
-        D = local.data.D
-        return A, MassFactor(self, q.copy(), token, bool(np.all(np.isfinite(D)) and D.min() > 0.0))
+        # every pivot finite and > 0, in floats: min and max may step over a NaN, their sum never does
+        D = data.D.tolist()
+        valid = min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
+        return A, MassFactor(self, q.copy(), token, valid)
 
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
@@ -326,11 +341,14 @@ class Mechanism:
 
     def frame_jacobian(self, q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None) -> NDArray[np.float64]:
         """:meth:`point_jacobian` for a validated q, a frame index and an offset (hot path)."""
-        data = self.data
+        data = self.workspace().data
         # computeFrameJacobian also updates data.oMf[fid], used for the offset below
-        J6 = np.asarray(pin.computeFrameJacobian(self.model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)).reshape(6, self.nv)
-        r = None if point is None else data.oMf[fid].rotation @ point
-        return offset_point_jacobian(J6, r)
+        J6 = pin.computeFrameJacobian(self.model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+        if J6.shape != (6, self._dims[1]):
+            J6 = np.asarray(J6).reshape(6, self._dims[1])
+        if point is None:
+            return J6[:3]  # a view of the fresh (6, nv) array Pinocchio returned: nothing else holds it
+        return offset_point_jacobian(J6, data.oMf[fid].rotation @ point)
 
     def frame_position(self, q: ArrayLike, frame: str, point: ArrayLike | None = None) -> NDArray[np.float64]:
         """World position of a point fixed to a frame, shape (3,)."""
@@ -363,6 +381,16 @@ class Mechanism:
     def collision_names(self) -> list[str]:
         """Names of the mechanism's collision objects (loads them, see :meth:`collision_model`)."""
         return self.collision_model().names
+
+
+def _file_path(kind: str, path: object) -> Path:
+    """``path`` as a :class:`~pathlib.Path` (a :class:`RobotNotFoundError` if it is not a path)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path), got {type(path).__name__}")
+    try:
+        return Path(path)
+    except TypeError as exc:  # an os.PathLike that does not return a str
+        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path): {exc}") from None
 
 
 def _offset(point: ArrayLike | None) -> NDArray[np.float64] | None:

@@ -7,9 +7,6 @@ loader, so the files are located here from the installed distribution.
 
 from __future__ import annotations
 
-import difflib
-import importlib.metadata
-import importlib.resources
 from pathlib import Path
 
 from ..errors import RobotNotFoundError
@@ -75,6 +72,8 @@ def robots_dir() -> Path:
     RobotNotFoundError
         example-robot-data is not installed or ships no robots folder.
     """
+    import importlib.metadata  # on use: the import costs `import mbimpact` a tenth of its time
+
     try:
         dist = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError as exc:
@@ -99,6 +98,8 @@ def robots_share_dir() -> Path:
 
 def close_matches(name: str, names: list[str]) -> list[str]:
     """Up to 8 names similar to ``name`` or containing it (for error messages)."""
+    import difflib  # on use, for error messages
+
     close = difflib.get_close_matches(name, names, n=5, cutoff=0.5)
     close += [n for n in names if name.lower() in n.lower() and n not in close]
     return close[:8]
@@ -111,7 +112,15 @@ def _unknown(kind: str, name: str, names: list[str]) -> RobotNotFoundError:
 
 
 def robot_urdf(name: str) -> tuple[Path, bool]:
-    """URDF path of an example-robot-data robot and whether it has a floating base."""
+    """URDF path of an example-robot-data robot and whether it has a floating base.
+
+    Raises
+    ------
+    RobotNotFoundError
+        No robot of that name (the message lists close matches), or a name that is not a string.
+    """
+    if not isinstance(name, str):
+        raise RobotNotFoundError(f"a robot is named by a string (mbimpact.robot_names()), got {type(name).__name__}")
     if name not in ROBOTS:
         raise _unknown("robot", name, robot_names())
     rel, floating = ROBOTS[name]
@@ -124,6 +133,8 @@ def models_dir() -> Path:
     Installed as package data ``mbimpact/models``; in a source checkout it is
     the top-level ``models/`` folder.
     """
+    import importlib.resources  # on use
+
     packaged = Path(str(importlib.resources.files("mbimpact"))) / "models"
     if packaged.is_dir():
         return packaged
@@ -136,7 +147,15 @@ def model_names() -> list[str]:
 
 
 def model_path(name: str) -> Path:
-    """Path of one of mbimpact's own URDF models, e.g. ``model_path("double_pendulum")``."""
+    """Path of one of mbimpact's own URDF models, e.g. ``model_path("double_pendulum")``.
+
+    Raises
+    ------
+    RobotNotFoundError
+        No model of that name (the message lists close matches), or a name that is not a string.
+    """
+    if not isinstance(name, str):
+        raise RobotNotFoundError(f"a model is named by a string (mbimpact.model_names()), got {type(name).__name__}")
     path = models_dir() / f"{name}.urdf"
     if not path.is_file():
         raise _unknown("model", name, model_names())

@@ -14,8 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +29,32 @@ __all__ = ["ContactMetric", "spread_bound", "eigen_ratio"]
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9
+
+_T = TypeVar("_T")
+
+
+class _lazy(Generic[_T]):  # noqa: N801 — used as a decorator, like functools.cached_property
+    """``functools.cached_property`` without its lock (Python 3.11 takes one on every first access,
+    which costs a single impact more than the product it caches): computed on first access, then
+    stored in the instance ``__dict__``, which shadows this non-data descriptor from then on."""
+
+    def __init__(self, fn: Callable[[Any], _T]) -> None:
+        self.fn, self.name, self.__doc__ = fn, fn.__name__, fn.__doc__
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> _lazy[_T]: ...
+
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> _T: ...
+
+    def __get__(self, obj: object | None, owner: type | None = None) -> _lazy[_T] | _T:
+        if obj is None:
+            return self
+        value = obj.__dict__[self.name] = self.fn(obj)
+        return value
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +76,11 @@ class ContactMetric:
     A: NDArray[np.float64]
     J: NDArray[np.float64]
     solver: Callable[[NDArray[np.float64]], NDArray[np.float64]] = field(repr=False)
+
+    def __init__(self, A: NDArray[np.float64], J: NDArray[np.float64],
+                 solver: Callable[[NDArray[np.float64]], NDArray[np.float64]]) -> None:
+        # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
+        self.__dict__.update(A=A, J=J, solver=solver)
 
     @classmethod
     def from_arrays(cls, A: ArrayLike, J: ArrayLike) -> ContactMetric:
@@ -117,27 +147,34 @@ class ContactMetric:
                 f"the mass matrix of {mech.name} at q is not positive definite (smallest eigenvalue "
                 f"{lam:.6g}); its URDF may have massless links or joints without inertia"
             )
-        _freeze(A, J)
+        A.setflags(write=False)
+        J.setflags(write=False)
         return cls(A, J, factor.solve)
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """A⁻¹ b for b of shape (n,) or (n, k)."""
         return self.solver(b)
 
-    @cached_property
+    @_lazy
     def AinvJt(self) -> NDArray[np.float64]:  # noqa: N802 — the paper's notation
-        out = self.solver(np.ascontiguousarray(self.J.T))
-        out.flags.writeable = False
+        out = self.solver(self.J.T)  # Jᵀ as a view: its columns are the contiguous rows of J
+        out.setflags(write=False)
         return out
 
-    @cached_property
+    @_lazy
     def W(self) -> NDArray[np.float64]:  # noqa: N802
-        W = self.J @ self.AinvJt
-        W = 0.5 * (W + W.T)  # exact symmetry; rounding would otherwise leak into mᵀWm
-        W.flags.writeable = False
-        return W
+        W = self.J.dot(self.AinvJt).tolist()
+        # exact symmetry, ½(W + Wᵀ); rounding would otherwise leak into mᵀWm (in floats: d ≤ 3)
+        if len(W) == 3:
+            (a, b, c), (d, e, f), (g, h, k) = W
+            out = np.array([[0.5 * (a + a), 0.5 * (b + d), 0.5 * (c + g)], [0.5 * (d + b), 0.5 * (e + e), 0.5 * (f + h)],
+                            [0.5 * (g + c), 0.5 * (h + f), 0.5 * (k + k)]])
+        else:
+            out = np.array([[0.5 * (W[i][j] + W[j][i]) for j in range(len(W))] for i in range(len(W))])
+        out.setflags(write=False)
+        return out
 
-    @cached_property
+    @_lazy
     def range_projector(self) -> NDArray[np.float64] | None:
         """Orthogonal projector onto range(W), or None when W has full rank."""
         W = self.W
@@ -160,23 +197,29 @@ class ContactMetric:
 
 def _freeze(*arrays: NDArray[np.float64]) -> None:
     for a in arrays:
-        a.flags.writeable = False
+        a.setflags(write=False)
 
 
-def spread_bound(W: NDArray[np.float64]) -> float:
+def spread_bound(W: NDArray[np.float64] | list[list[float]]) -> float:
     """A lower bound det W / tr(W)^d of λ_min / λ_max for a positive semidefinite W (d ≤ 3).
 
     Computed in floats on W / tr W (no over- or underflow whatever the scale of W): for
-    2 × 2 and 3 × 3 matrices this is far cheaper than LAPACK.
+    2 × 2 and 3 × 3 matrices this is far cheaper than LAPACK. ``W`` may also be given as
+    nested lists of floats (``W.tolist()``, on hot paths that already hold them).
     """
-    tr = float(sum(W[i, i] for i in range(len(W))))
+    rows = W if isinstance(W, list) else W.tolist()
+    if len(rows) == 2:
+        (a, b), (c, d) = rows
+        tr = 0.0 + a + d
+        if not tr > 0.0:
+            return 0.0
+        return (a / tr) * (d / tr) - (b / tr) * (c / tr)
+    (a, b, c), (d, e, f), (g, h, k) = rows
+    tr = 0.0 + a + e + k
     if not tr > 0.0:
         return 0.0
-    w = (W / tr).tolist()
-    if len(w) == 2:
-        return float(w[0][0] * w[1][1] - w[0][1] * w[1][0])
-    return float(w[0][0] * (w[1][1] * w[2][2] - w[1][2] * w[2][1]) - w[0][1] * (w[1][0] * w[2][2] - w[1][2] * w[2][0])
-                 + w[0][2] * (w[1][0] * w[2][1] - w[1][1] * w[2][0]))
+    a, b, c, d, e, f, g, h, k = a / tr, b / tr, c / tr, d / tr, e / tr, f / tr, g / tr, h / tr, k / tr
+    return a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
 
 
 def eigen_ratio(W: NDArray[np.float64]) -> float:
@@ -186,10 +229,11 @@ def eigen_ratio(W: NDArray[np.float64]) -> float:
     instead of LAPACK's tens); λ_min carries an absolute error of order ε λ_max,
     enough to tell a well-conditioned W from a nearly singular one.
     """
-    tr = float(W[0, 0] + W[1, 1] + W[2, 2])
+    (a, b, c), (_, d, f), (_, _, g) = rows = W.tolist()
+    tr = rows[0][0] + rows[1][1] + rows[2][2]
     if not tr > 0.0:
         return 0.0
-    (a, b, c), (_, d, f), (_, _, g) = (W / tr).tolist()  # unit trace: no over- or underflow
+    a, b, c, d, f, g = a / tr, b / tr, c / tr, d / tr, f / tr, g / tr  # unit trace: no over- or underflow
     q = (a + d + g) / 3.0
     off = b * b + c * c + f * f
     p = math.sqrt(((a - q) ** 2 + (d - q) ** 2 + (g - q) ** 2 + 2.0 * off) / 6.0)

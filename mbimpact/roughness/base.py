@@ -21,6 +21,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.geometry import scaled_norm
 from ..common.validation import as_array
 from ..errors import ParameterError, RoughnessError
 
@@ -137,7 +138,7 @@ def check_normals(name: str, normals: ArrayLike) -> NDArray[np.float64]:
     m = as_array(name, normals, 2)
     if m.shape[1] not in (2, 3) or m.shape[0] == 0:
         raise RoughnessError(f"facet normals must have shape (K, d), K ≥ 1, d = 2 or 3; got {m.shape}")
-    lengths = np.linalg.norm(m, axis=1)
+    lengths = scaled_norm(m, axis=1)  # entries near the float range must not overflow the squares
     bad = np.flatnonzero(np.abs(lengths - 1.0) > _UNIT_TOL)
     if bad.size:
         raise RoughnessError(

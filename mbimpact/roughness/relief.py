@@ -19,17 +19,40 @@ from ..common.validation import as_array, as_scalar
 from ..errors import RoughnessError
 from .base import Roughness
 
-__all__ = ["Profile", "HeightMap"]
+__all__ = ["Profile", "HeightMap", "SIZE_RANGE"]
 
 # Elements per work array of the exact height-map shadowing (intervals × crossings²).
 _CHUNK = 1 << 21
 
 
+#: Magnitudes of sample spacings (from SIZE_RANGE[0] to SIZE_RANGE[1]) and heights (up to SIZE_RANGE[1]),
+#: in any unit: slopes, true lengths and areas of the relief stay far inside the float range.
+SIZE_RANGE = (1e-100, 1e100)
+
+
 def _spacing(name: str, x: float) -> float:
+    """A sample spacing within :data:`SIZE_RANGE`."""
     val = as_scalar(name, x, 0.0, math.inf)
-    if not val > 0:
-        raise RoughnessError(f"{name} must be > 0, got {val}")
+    if not SIZE_RANGE[0] <= val <= SIZE_RANGE[1]:
+        raise RoughnessError(f"{name} must be in [{SIZE_RANGE[0]:g}, {SIZE_RANGE[1]:g}] (any unit, the same as "
+                             f"the heights'), got {val:g}")
     return val
+
+
+def _heights(name: str, x: object, ndim: int) -> NDArray[np.float64]:
+    """Finite heights of magnitude up to ``SIZE_RANGE[1]``."""
+    h = as_array(name, x, ndim)  # type: ignore[arg-type]
+    if h.size and float(np.abs(h).max()) > SIZE_RANGE[1]:
+        raise RoughnessError(f"{name} must lie within ±{SIZE_RANGE[1]:g} (any unit, the same as the spacing's), "
+                             f"got {float(np.abs(h).max()):g}")
+    return h
+
+
+def _flag(name: str, x: object) -> bool:
+    """A True/False setting."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise RoughnessError(f"{name} must be True or False, got {x!r}")
+    return bool(x)
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,7 +64,7 @@ class Profile(Roughness):
     heights : array_like, shape (K + 1,)
         Heights above the base line at x = 0, dx, ..., K dx (any unit, same as dx).
     dx : float
-        Sample spacing, > 0.
+        Sample spacing, in [1e-100, 1e100] (:data:`SIZE_RANGE`; heights within ±1e100).
     shadowing : bool
         Weight each segment by its part that a straight approach along the
         velocity reaches first (exact for the piecewise-linear profile).
@@ -59,12 +82,14 @@ class Profile(Roughness):
     dim = 2
 
     def __post_init__(self) -> None:
-        h = as_array("heights", self.heights, 1)
+        h = _heights("heights", self.heights, 1)
         if h.size < 2:
             raise RoughnessError(f"a profile needs at least 2 heights, got {h.size}")
         dx = _spacing("dx", self.dx)
-        slope = np.diff(h) / dx
-        sec = np.sqrt(1.0 + slope * slope)
+        object.__setattr__(self, "shadowing", _flag("shadowing", self.shadowing))
+        object.__setattr__(self, "periodic", _flag("periodic", self.periodic))
+        slope = np.diff(h) / dx  # |slope| ≤ 2e200: its hypot with 1 is finite
+        sec = np.hypot(1.0, slope)
         normals = np.column_stack([-slope / sec, 1.0 / sec])
         for a in (h, normals, sec):
             a.flags.writeable = False
@@ -123,7 +148,7 @@ class HeightMap(Roughness):
     z : array_like, shape (nx, ny)
         Heights at x = i dx, y = j dy.
     dx, dy : float
-        Grid spacings, > 0.
+        Grid spacings, in [1e-100, 1e100] (:data:`SIZE_RANGE`; heights within ±1e100).
     shadowing : bool
         Weight each triangle by the part of it hit first by an approach along
         the velocity (exact to rounding, :meth:`lit_fraction`; about 0.2 s per
@@ -139,10 +164,11 @@ class HeightMap(Roughness):
     dim = 3
 
     def __post_init__(self) -> None:
-        z = as_array("z", self.z, 2)
+        z = _heights("z", self.z, 2)
         if z.shape[0] < 2 or z.shape[1] < 2:
             raise RoughnessError(f"a height map needs at least 2×2 samples, got {z.shape}")
         dx, dy = _spacing("dx", self.dx), _spacing("dy", self.dy)
+        object.__setattr__(self, "shadowing", _flag("shadowing", self.shadowing))
         # two triangles per cell: (00, 10, 11) and (00, 11, 01); their slopes are exact
         sx1 = (z[1:, :-1] - z[:-1, :-1]) / dx
         sy1 = (z[1:, 1:] - z[1:, :-1]) / dy
@@ -150,7 +176,7 @@ class HeightMap(Roughness):
         sy2 = (z[:-1, 1:] - z[:-1, :-1]) / dy
         sx = np.concatenate([sx1.ravel(), sx2.ravel()])
         sy = np.concatenate([sy1.ravel(), sy2.ravel()])
-        sec = np.sqrt(1.0 + sx * sx + sy * sy)
+        sec = np.hypot(1.0, np.hypot(sx, sy))  # slopes up to 2e200: no overflow
         normals = np.column_stack([-sx / sec, -sy / sec, 1.0 / sec])
         areas = 0.5 * dx * dy * sec
         for a in (z, normals, areas):

@@ -42,6 +42,8 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
         assert t["validation + result object only (no physics)"] < t["impact, NewtonLaw"]
         assert t["Pinocchio calls inside impact(NewtonLaw) only"] < t["impact, NewtonLaw"]
     assert all(float(r["ratio"]) > 0 for r in rows if r["part"] == "batch")
+    facet_rows = {r["method"] for r in rows if r["part"] == "batch" and r["method"].endswith(" facets, adaptive")}
+    assert facet_rows == {f"RoughLaw(Cone), {f} facets, adaptive" for f in ("coulomb", "compliant", "hunt-crossley")}
     comp = [r for r in rows if r["part"] == "compliant" and r["method"].startswith("resolve")]
     errs = [float(r["error"]) for r in sorted(comp, key=lambda r: float(r["param"]))]
     assert errs == sorted(errs, reverse=True) and errs[-1] < 1e-4  # O(1/M) towards the closed law

@@ -46,3 +46,27 @@ def test_models_are_shipped_with_the_package():
     assert {"point_mass_2d", "point_mass_3d", "planar_rod", "double_pendulum"} <= set(mbi.model_names())
     for name in mbi.model_names():
         assert mbi.Mechanism.from_model(name).nv >= 2  # the solids float by default
+
+
+def test_compare_runs_every_facet_law_and_facet_friction_adds_friction(tmp_path):
+    """``mbimpact compare --facet ...``: the rough law with Coulomb or compliant facets gives more
+    friction and dissipates more than with frictionless (Newton) facets at every incidence, and
+    Hunt–Crossley facets tuned to e at the approach speed stay close to Newton facets."""
+    import csv
+
+    from mbimpact.apps.cli import main
+
+    assert main(["compare", "--steps", "4", "--facet", "coulomb", "--facet", "compliant",
+                 "--facet", "hunt-crossley", "--out", str(tmp_path)]) == 0
+    rows = list(csv.DictReader((tmp_path / "compare.csv").open()))
+    by = {}
+    for r in rows:
+        by.setdefault(r["law"], []).append(r)
+    newton_facets = by["rough Cone alpha=0.3"]
+    assert len(by) == 6 and all(len(v) == 4 for v in by.values())
+    for name in ("coulomb", "compliant"):
+        other = by[f"rough Cone alpha=0.3, {name} facets"]
+        for a, b in zip(newton_facets, other):
+            assert float(b["mu"]) > float(a["mu"]) and float(b["energy_loss"]) > float(a["energy_loss"])
+    hc = by["rough Cone alpha=0.3, hunt-crossley facets"]
+    assert all(abs(float(a["mu"]) - float(b["mu"])) < 0.05 for a, b in zip(newton_facets, hc))
