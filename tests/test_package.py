@@ -35,3 +35,17 @@ def test_import_leaves_the_scenes_the_apps_and_scipy_unloaded():
             "if m in sys.modules and m not in before))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_every_subpackage_is_installed_by_a_non_editable_install():
+    """pyproject lists the packages explicitly: a subpackage missing there is missing from the wheel
+    (``mbimpact.apps.bench`` once was), which an editable install hides."""
+    import tomllib
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[1]  # the checkout, whatever copy is installed
+    root = source / "mbimpact"
+    found = {"mbimpact"} | {"mbimpact." + ".".join(p.parent.relative_to(root).parts)
+                            for p in root.rglob("__init__.py") if p.parent != root}
+    listed = set(tomllib.loads((source / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    assert listed - {"mbimpact.models"} == found

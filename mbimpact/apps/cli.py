@@ -13,7 +13,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import ImpactError
+from ..errors import ImpactError, NotPositiveDefiniteError
 
 __all__ = ["main"]
 
@@ -136,6 +136,9 @@ def _compare(args: argparse.Namespace) -> int:
         q = mech.check_configuration(np.array(args.q))
     else:
         q = UR5_POSTURE if (args.robot == "ur5" and not args.urdf) else mech.neutral()
+    if not mech.factorise(q)[1].valid:  # the approach velocity solves with A(q): name a singular one first
+        raise NotPositiveDefiniteError(f"the mass matrix of {mech.name} at this posture is not positive definite "
+                                       "(massless links or joints without inertia); compare needs one")
     rough = Sawtooth(args.alpha) if args.planar else Cone(args.alpha)
     laws = {
         f"Newton e={args.e:g}": NewtonLaw(args.e),

@@ -39,7 +39,8 @@ from ..common.validation import as_count, as_scalar
 from ..errors import IntegrationError, ParameterError
 from .base import FacetLaw
 
-__all__ = ["CoulombFacet", "planar_coulomb", "spatial_coulomb", "RESTITUTIONS", "MAX_FACET_MU", "MIN_FACET_MU", "MAX_STEPS"]
+__all__ = ["CoulombFacet", "planar_coulomb", "spatial_coulomb", "RESTITUTIONS", "MAX_FACET_MU", "MIN_FACET_MU",
+           "MAX_STEPS"]
 
 Restitution = Literal["newton", "poisson", "energetic"]
 RESTITUTIONS: tuple[Restitution, ...] = ("energetic", "poisson", "newton")

@@ -70,7 +70,8 @@ class IsotropicSlopes(Roughness):
         if not callable(self.pdf):
             raise RoughnessError(f"pdf must be a callable density of the tilt, got {type(self.pdf).__name__}")
         if not isinstance(self.support, (tuple, list)) or len(self.support) != 2:
-            raise RoughnessError(f"support must be an interval (lo, hi) of tilts within [0, π/2), got {self.support!r}")
+            raise RoughnessError(f"support must be an interval (lo, hi) of tilts within [0, π/2), "
+                                 f"got {self.support!r}")
         lo = as_scalar("support[0]", self.support[0], 0.0, math.pi / 2, hi_open=True)
         hi = as_scalar("support[1]", self.support[1], 0.0, math.pi / 2, hi_open=True)
         if not lo < hi:
@@ -235,7 +236,8 @@ class GaussianSlopes(IsotropicSlopes):
     def __init__(self, sigma: float, dim: int = 3) -> None:
         sigma = as_scalar("sigma", sigma, 0.0, math.inf)
         if not sigma >= self.min_sigma:
-            raise ParameterError(f"sigma must be ≥ {self.min_sigma:g} (use Smooth() for a flat surface), got {sigma:g}")
+            raise ParameterError(f"sigma must be ≥ {self.min_sigma:g} (use Smooth() for a flat surface), "
+                                 f"got {sigma:g}")
         object.__setattr__(self, "sigma", sigma)
         top = math.atan(11.0 * sigma)  # density below exp(-60) beyond: negligible at rtol 1e-12
         super().__init__(GaussianTiltDensity(sigma, dim), dim, (0.0, min(top, math.pi / 2 * (1 - 1e-9))))

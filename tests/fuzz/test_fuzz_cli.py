@@ -31,6 +31,12 @@ from tests.helpers import time_limit
 
 LIMIT = 60.0  # seconds per command
 
+#: Reproducers in modules this suite's authors may not change (reported); the grammar avoids them.
+KNOWN = {
+    "fit DATA --law newton --seed -1": "calibration/least_squares.py: numpy's default_rng(-1) raises a raw ValueError "
+                                       "(a traceback); argparse's --seed (apps/fit.py) takes any int",
+}
+
 PENDULUM = """<?xml version="1.0"?>
 <robot name="pendulum">
   <link name="base"/>
@@ -74,9 +80,10 @@ def files(tmp_path_factory) -> dict[str, str]:
     (root / "empty.csv").write_text("")
     (root / "file").write_text("x")
     (root / "dir").mkdir()
-    return {name: str(root / name) for name in ("pendulum.urdf", "broken.urdf", "tiny.toml", "typo.toml", "nan.toml",
-                                                  "notoml.toml", "table.csv", "bad.csv", "empty.csv", "file", "dir")} | {
-        "new": str(root / "new"), "under_file": str(root / "file" / "sub"), "root": str(root)}
+    names = ("pendulum.urdf", "broken.urdf", "tiny.toml", "typo.toml", "nan.toml", "notoml.toml", "table.csv",
+             "bad.csv", "empty.csv", "file", "dir")
+    out = {name: str(root / name) for name in names}
+    return out | {"new": str(root / "new"), "under_file": str(root / "file" / "sub")}
 
 
 def numbers(good: list[str]) -> st.SearchStrategy[str]:
@@ -124,6 +131,8 @@ def argvs(draw: st.DrawFn) -> list[str]:
         maybe("--e", numbers(["0.8", "2"]))
         maybe("--mu", numbers(["0.3", "-0.1", "50"]))
         maybe("--restitution", st.sampled_from(["newton", "poisson", "energetic", "stronge"]))
+        maybe("--facet", st.sampled_from(["coulomb", "compliant", "hunt-crossley", "newton", ""]))
+        maybe("--stiffness-ratio", numbers(["0.8", "2"]))
         maybe("--max-beta", numbers(["85", "89.999", "90", "0"]))
         argv += ["--steps", opt(counts(["1", "2", "3"]))]  # always a few: the default 35 is long for a fuzz
         maybe("--out", outs("dir"))
@@ -143,7 +152,7 @@ def argvs(draw: st.DrawFn) -> list[str]:
         maybe("--body", st.sampled_from(["point", "sphere radius=0.01 mass=0.1", "sphere radius=-1", "cube", ""]))
         maybe("--speed", numbers(["1.0", "3"]))
         maybe("--starts", counts(["1", "2"]))
-        maybe("--seed", counts(["0", "7"]))
+        maybe("--seed", st.sampled_from(["0", "7", "x", "1.5", ""]))  # not < 0: KNOWN
         maybe("--out", outs("dir"))
     elif command == "figures":
         argv += ["--out", opt(st.sampled_from(["@file", "@under_file", "/proc/mbimpact-nope/x", "bad\x00name"]))]
@@ -197,7 +206,8 @@ def test_random_command_lines_end_with_a_status_and_a_message(files, argv):
 def test_the_grammar_reaches_success(files):
     """The fuzz also runs valid commands (quickly): they succeed."""
     for argv in (["compare", "--urdf", "@pendulum.urdf", "--frame", "tip", "--q", "0.3", "--steps", "2"],
-                 ["run", "@tiny.toml", "--no-progress"], ["scene", "@tiny.toml"], ["fit", "@table.csv", "--law", "newton"],
+                 ["run", "@tiny.toml", "--no-progress"], ["scene", "@tiny.toml"],
+                 ["fit", "@table.csv", "--law", "newton"],
                  ["--version"]):
         code, _, err = run(resolve(argv, files))
         assert code in (0, None), (argv, err)

@@ -42,7 +42,8 @@ V3 = np.array([0.3, -0.2, -1.0])
 N3 = np.array([0.0, 0.0, 1.0])
 A2, J2, V2, N2 = A3[:2, :2].copy(), np.eye(2), np.array([0.3, -1.0]), np.array([0.0, 1.0])
 TILT = 0.3
-FACET_NORMALS = np.array([[0.0, 0.0, 1.0], [math.sin(TILT), 0.0, math.cos(TILT)], [0.0, -math.sin(TILT), math.cos(TILT)]])
+FACET_NORMALS = np.array([[0.0, 0.0, 1.0], [math.sin(TILT), 0.0, math.cos(TILT)],
+                          [0.0, -math.sin(TILT), math.cos(TILT)]])
 UR5_Q = np.array([0.0, -1.2, 1.6, -1.97, -1.57, 0.0])
 
 
@@ -162,11 +163,13 @@ def _not_a_path(x: Any) -> bool:
 #: Reproducers of bugs in modules this suite's authors may not change (reported to their owners);
 #: the fuzz steers round them (:attr:`Target.known`) so that it stays green and keeps watching the rest.
 KNOWN = {
-    "local_basis(v, d=array)": "metric/basis.py: `d not in (2, 3)` on an array raises numpy's ambiguous-truth ValueError",
+    "local_basis(v, d=array)": "metric/basis.py: `d not in (2, 3)` on an array raises numpy's ambiguous-truth "
+                               "ValueError",
     "RoughLaw(flux=array)": "averaging/kernels.py check_flux: `flux not in FLUXES` on an array raises a raw ValueError",
     "CoulombLaw(restitution=array)": "laws/coulomb.py: the same raw ValueError",
     "CoulombLaw(mu=1e160)": "laws/coulomb.py: mu ≥ 1e160 raises OverflowError at apply time",
-    "J with entries > 1e150": "metric/delassus.py: J A⁻¹ Jᵀ overflows with a numpy RuntimeWarning; laws/newton.py too",
+    "J with entries > 1e150": "metric/delassus.py: J A⁻¹ Jᵀ overflows with a numpy RuntimeWarning; laws/newton.py "
+                              "too",
     "A with entries > 1e150, not positive definite": "metric/delassus.py from_symmetric: 0.5 (A + Aᵀ) overflows "
                                                       "(RuntimeWarning) while naming the error",
     "v with entries > 1e300": "laws/newton.py apply_metric (the Newton fast path): J v overflows to inf, then "
@@ -193,7 +196,8 @@ TARGETS: list[Target] = [
            {"restitution": ["newton", "poisson", "stronge"]}, known={"restitution": _array, "mu": _huge}),
     Target("Cone", lambda **kw: apply3(mbi.Cone(**kw)), {"alpha": TILT}),
     Target("Sawtooth", lambda **kw: apply2(mbi.Sawtooth(**kw)), {"alpha": TILT}),
-    Target("Facets", lambda **kw: apply3(mbi.Facets(**kw)), {"normals": FACET_NORMALS, "weights": np.array([1.0, 2.0, 3.0])}),
+    Target("Facets", lambda **kw: apply3(mbi.Facets(**kw)),
+           {"normals": FACET_NORMALS, "weights": np.array([1.0, 2.0, 3.0])}),
     Target("IsotropicSlopes", lambda **kw: apply3(mbi.IsotropicSlopes(**kw)),
            {"pdf": np.cos, "dim": 3, "support": (0.0, 0.8)},
            {"pdf": [bad_pdf_nan, bad_pdf_negative, bad_pdf_short, bad_pdf_complex, bad_pdf_string, bad_pdf_zero,
@@ -220,7 +224,8 @@ TARGETS: list[Target] = [
            {"J": _huge, "A": _huge, "v": _overflowing}),
     Target("apply(2-D)", _law_apply, {"law": mbi.RoughLaw(mbi.Sawtooth(0.3), 0.5), "A": A2, "J": J2, "v": V2,
                                       "frame": N2}, fixed=("law",), known={"J": _huge, "A": _huge, "v": _overflowing}),
-    Target("apply_batch", _law_apply_batch, {"law": LAWS[0], "A": A3, "J": J3, "V": np.stack([V3, 2 * V3]), "frame": N3},
+    Target("apply_batch", _law_apply_batch,
+           {"law": LAWS[0], "A": A3, "J": J3, "V": np.stack([V3, 2 * V3]), "frame": N3},
            {"law": LAWS}, ("law",), {"J": _huge, "A": _huge, "V": _overflowing}),
     Target("impact", mbi.impact, {"mech": "ur5", "q": UR5_Q, "v": "ur5_v", "contact": mbi.PointContact("tool0"),
                                   "law": LAWS[1]}, {"law": LAWS}, known={"v": _overflowing}),
