@@ -13,7 +13,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from ..errors import ImpactError, NotPositiveDefiniteError
+from ..errors import ImpactError, NotPositiveDefiniteError, ParameterError
 
 __all__ = ["main"]
 
@@ -169,7 +169,13 @@ def _compare(args: argparse.Namespace) -> int:
 def _figures(args: argparse.Namespace) -> int:
     from .figures import write_all
 
-    for path in write_all(args.out):
+    out = args.out
+    if out is None:  # the default, ./figures, is made only when the figures are written
+        try:
+            out = _out_dir("figures")
+        except argparse.ArgumentTypeError as exc:
+            raise ParameterError(f"--out (default ./figures): {exc}") from None
+    for path in write_all(out):
         print(f"wrote {path}")
     return 0
 
@@ -249,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
     cmp.add_argument("--out", type=_out_dir, help="directory for compare.csv and compare.png")
     cmp.set_defaults(func=_compare)
     figs = sub.add_parser("figures", help="the paper's Fig. 1 and 2, claims 1°-5°, section 4's stability map")
-    figs.add_argument("--out", type=_out_dir, default="figures", help="output directory (default ./figures)")
+    # no default here: argparse would convert (and so create) ./figures whenever the subcommand is parsed
+    figs.add_argument("--out", type=_out_dir, help="output directory (default ./figures)")
     figs.set_defaults(func=_figures)
     run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
     run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")

@@ -19,7 +19,9 @@ The default run takes a small derandomised sample; ``pytest -m slow`` runs 10⁴
 from __future__ import annotations
 
 import io
+import os
 import warnings
+from collections.abc import Iterator
 from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
@@ -66,9 +68,12 @@ TABLE = "theta_deg,kappa\n0,0.8\n30,0.7\n60,0.6\n"
 
 
 @pytest.fixture(scope="module")
-def files(tmp_path_factory) -> dict[str, str]:
-    """Paths the grammar refers to: good and bad inputs, and outputs of every kind."""
+def files(tmp_path_factory) -> Iterator[dict[str, str]]:
+    """Paths the grammar refers to: good and bad inputs, and outputs of every kind. The commands run
+    in this folder: relative --out paths (and ./figures) are written here, not in the repository."""
     root = tmp_path_factory.mktemp("cli")
+    cwd = os.getcwd()
+    os.chdir(root)
     (root / "pendulum.urdf").write_text(PENDULUM)
     (root / "broken.urdf").write_text("<robot name='x'><link")
     (root / "tiny.toml").write_text(SCENE)
@@ -83,7 +88,10 @@ def files(tmp_path_factory) -> dict[str, str]:
     names = ("pendulum.urdf", "broken.urdf", "tiny.toml", "typo.toml", "nan.toml", "notoml.toml", "table.csv",
              "bad.csv", "empty.csv", "file", "dir")
     out = {name: str(root / name) for name in names}
-    return out | {"new": str(root / "new"), "under_file": str(root / "file" / "sub")}
+    try:
+        yield out | {"new": str(root / "new"), "under_file": str(root / "file" / "sub")}
+    finally:
+        os.chdir(cwd)
 
 
 def numbers(good: list[str]) -> st.SearchStrategy[str]:

@@ -659,6 +659,14 @@ def test_cli_bad_compare_arguments(argv, fragment):
     assert code == 2 and fragment in err and "Traceback" not in err
 
 
+def test_cli_parsing_creates_no_figures_folder(tmp_path, monkeypatch):
+    """argparse converted the string default of figures --out, making ./figures on every parse."""
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(["figures", "--bogus"])
+    assert code == 2 and "unrecognized arguments" in err
+    assert not (tmp_path / "figures").exists()
+
+
 def test_cli_version():
     code, out, _ = run_cli(["--version"])
     assert code == 0 and out.strip() == f"mbimpact {mbi.__version__}"
