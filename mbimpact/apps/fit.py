@@ -43,7 +43,7 @@ class Skipped:
 
 
 def fit_laws(table: Any, laws: tuple[str, ...], body: Any = None, speed: float | None = None,
-             starts: int | None = None, seed: int = 0, progress: bool = False) -> list[Any]:
+             starts: int | None = None, seed: int | None = 0, progress: bool = False) -> list[Any]:
     """:func:`mbimpact.fit` of every family in ``laws``: a list of :class:`~mbimpact.calibration.Fit` or :class:`Skipped`."""
     from ..calibration import FitError, fit
 
@@ -203,6 +203,17 @@ def _laws(text: list[str] | None) -> tuple[str, ...]:
     return names
 
 
+def _seed(text: str) -> int:
+    """An argument type: an integer ≥ 0 (numpy's generator refuses a negative seed with a bare ValueError)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer ≥ 0, got {n}")
+    return n
+
+
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``mbimpact fit`` on the CLI's subparsers; its ``func`` is :func:`run`."""
     from ..calibration import FAMILIES
@@ -217,7 +228,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--body", help="'sphere radius=R mass=m' or 'point' (default: the table's body line)")
     p.add_argument("--speed", type=float, help="impact speed (m/s) when the table has no speed column")
     p.add_argument("--starts", type=int, help="starting points per fit (default: 1 convex, 4 otherwise)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random starting points")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random starting points (an integer ≥ 0)")
     p.add_argument("--out", help="directory for <table>_fit.csv, <table>_predictions.csv and <table>_fit.png")
     p.set_defaults(func=run)
     return p

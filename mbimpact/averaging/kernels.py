@@ -47,7 +47,8 @@ FLUXES: tuple[Flux, ...] = ("physical", "configuration")
 
 def check_flux(flux: object) -> Flux:
     """``flux`` if it names a facet weight, else a :class:`ParameterError` saying what is valid."""
-    if flux not in FLUXES:
+    # a str first: ``in`` compares with ==, which on an array is elementwise (an ambiguous truth value)
+    if not isinstance(flux, str) or flux not in FLUXES:
         raise ParameterError(
             f"flux must be 'physical' (the contact point's sweep rate, default) or 'configuration' "
             f"(the A-metric flux, for a measure on configuration-space area), got {flux!r}"

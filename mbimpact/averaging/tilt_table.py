@@ -50,14 +50,24 @@ __all__ = ["TiltTableMethod", "TiltTable", "tilt_table"]
 # Accept a series when its tail is below this fraction of its size; beyond the
 # limits the measure is too rough for a table and the law uses its quadrature.
 _TAIL = 1e-14
-_MAX_FOURIER = 256
+# The series in the incidence is fitted to sampled H_jl, sums of 1e4–1e6 kernel values whose
+# rounding leaves a floor near 1e-14 in its coefficients on a strongly anisotropic W: accept
+# a tail a little above it (the error estimate carries the tail).
+_TAIL_CHEBYSHEV = 5e-14
+_MAX_FOURIER = 2048
 _MAX_CHEBYSHEV = 512
 # Gauss–Legendre nodes in tilt on each side of α* = π/2 − β: the first count whose
 # moments agree with twice as many to _TAIL (a W with a small eigenvalue inside the
 # support makes the kernels peak in tilt as well as in azimuth), doubled for safety.
 _MIN_TILT_NODES, _MAX_TILT_NODES = 32, 1024
-# Kernel samples (β nodes × tilt nodes × azimuth samples) a table may cost to build (~2 s).
+# Kernel samples (β nodes × tilt nodes × azimuth samples) a table may cost to build: at
+# least _BUDGET (~2 s), and more for a larger batch, _BUDGET_PER_ROW a velocity. A sample
+# costs ~0.15 µs; the quadrature that a refused table leaves costs 10–75 ms a velocity on
+# a strongly anisotropic W (2–5e5 samples), so a table is built whenever it costs no
+# more: peaked kernels (cond W ~ 1e3: 1–1.5e8 samples, 10–20 s) are tabulated for
+# batches of ~1000 rows and more, and then cost microseconds a row.
 _BUDGET = 2e7
+_BUDGET_PER_ROW = 2e5
 
 
 @dataclass(frozen=True, eq=False)
@@ -209,7 +219,7 @@ def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, 
     return H, tail
 
 
-def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux) -> TiltTable | None:
+def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: float = _BUDGET) -> TiltTable | None:
     lo, hi = rough.support
     # Fourier degree in φ: enough for the sharpest ring of the support
     probe = np.linspace(lo, hi, 65)
@@ -221,7 +231,7 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux) -> TiltTa
         if np.all(np.abs(G[:, :, 3 * M // 8 :]).max(axis=(1, 2)) <= _TAIL * np.abs(G).max(axis=(1, 2))):
             break
         M *= 2
-        if M // 2 > _MAX_FOURIER:
+        if M // 2 > _MAX_FOURIER or 33 * 4 * _MIN_TILT_NODES * M > budget:  # the least a series costs
             return None
     # moments for β ≤ β_h (all rings full): l = 0, 1, 2; they also fix the tilt node count
     def moments_with(n: int) -> NDArray[np.complex128] | None:
@@ -249,10 +259,10 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux) -> TiltTa
     n_tilt = 2 * n
     beta_h = math.pi / 2 - hi
     ends = [beta_h, math.pi / 2 - lo, math.pi / 2] if lo > 0.0 else [beta_h, math.pi / 2]
-    budget = [_BUDGET]  # kernel samples left for all the pieces
+    left = [budget]  # kernel samples left for all the pieces
     pieces, tail = [], 0.0
     for beta0, beta1 in zip(ends[:-1], ends[1:]):
-        piece = _series(rough, W, flux, M, n_tilt, beta0, math.sqrt(beta1 - beta0), budget)
+        piece = _series(rough, W, flux, M, n_tilt, beta0, math.sqrt(beta1 - beta0), left)
         if piece is None:
             return None
         pieces.append(piece[0])
@@ -268,7 +278,7 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux) -> TiltTa
 def _series(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, M: int, n_tilt: int, beta0: float,
             tau_max: float, budget: list[float]) -> tuple[tuple[float, float, NDArray[np.complex128]], float] | None:
     """Chebyshev series of H_jl(β₀ + τ²) on τ ∈ [0, τ_max], refined until its tail is below
-    _TAIL; None past _MAX_CHEBYSHEV or past the kernel-sample ``budget`` (decremented)."""
+    _TAIL_CHEBYSHEV; None past _MAX_CHEBYSHEV or past the kernel-sample ``budget`` (decremented)."""
     # Chebyshev points of the second kind, x_k = cos(πk/N): doubling N reuses every value
     N = 32
     values: dict[int, NDArray[np.complex128]] = {}  # by k at resolution _MAX_CHEBYSHEV
@@ -297,40 +307,60 @@ def _series(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, M: int, 
         coef[-1] /= 2
         scale = np.abs(coef).max()
         tail_c = float(np.abs(coef[3 * N // 4 :]).max() / scale)
-        if tail_c <= _TAIL:
+        if tail_c <= _TAIL_CHEBYSHEV:
             Dk = int(np.flatnonzero((np.abs(coef) > 0.1 * _TAIL * scale).any(axis=(1, 2))).max()) + 1
             return (beta0, tau_max, coef[:Dk]), max(tail_f, tail_c)
         N *= 2
     return None
 
 
-# The last few tables (or refusals), by (measure, W, flux): a batch is split into blocks
-# of rows that share W, and a table is worth building once per batch only.
-_CACHE: OrderedDict[tuple[int, bytes, str], tuple[IsotropicSlopes, TiltTable | None]] = OrderedDict()
+# The last few tables (or refusals, with the budget they were refused under), by (measure,
+# W, flux): a batch is split into blocks of rows that share W, and a table is worth
+# building once per batch only; a larger batch may retry what a smaller one refused.
+_CACHE: OrderedDict[tuple[int, bytes, str], tuple[IsotropicSlopes, TiltTable | None, float]] = OrderedDict()
 _CACHE_SIZE = 8
 _LOCK = threading.Lock()
 
 
-def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build: bool = True
+def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build: bool = True, rows: int = 0
                ) -> TiltTable | None:
     """The cached :class:`TiltTable` of a spatial isotropic measure for Delassus matrix ``W`` (3, 3).
 
-    Returns None when the kernels are too peaked (nearly singular W) for series
-    within the limits: the law then uses its quadrature. With ``build=False`` only a table already built
-    is returned (a small block of a batch reuses it but does not pay for one).
+    Parameters
+    ----------
+    rough : IsotropicSlopes
+        A spatial isotropic tilt density.
+    W : ndarray, shape (3, 3)
+        The Delassus matrix in the local contact frame.
+    flux : str
+        The facet weight of (2.7)–(2.8).
+    build : bool
+        With False only a table already built is returned (a small block of a batch
+        reuses it but does not pay for one).
+    rows : int
+        Velocities the table will serve: a larger batch affords a costlier table (the
+        peaked kernels of a strongly anisotropic W need finer series).
+
+    Returns
+    -------
+    TiltTable or None
+        None when the kernels are too peaked (nearly singular W) for series within
+        the limits and the budget of ``rows``: the law then uses its quadrature.
     """
     W = np.ascontiguousarray(W, dtype=float)
     key = (id(rough), W.tobytes(), str(flux))
+    budget = max(_BUDGET, _BUDGET_PER_ROW * rows)
     with _LOCK:
         hit = _CACHE.get(key)
-        if hit is not None and hit[0] is rough:
+        if hit is not None and hit[0] is rough and (hit[1] is not None or hit[2] >= budget or not build):
             _CACHE.move_to_end(key)
             return hit[1]
     if not build:
         return None
-    table = _build(rough, W, flux)
+    table = _build(rough, W, flux, budget)
     with _LOCK:
-        _CACHE[key] = (rough, table)  # the measure is kept alive, so its id stays unique
+        _CACHE[key] = (rough, table, budget)  # the measure is kept alive, so its id stays unique
+        _CACHE.move_to_end(key)
         while len(_CACHE) > _CACHE_SIZE:
             _CACHE.popitem(last=False)
     return table
@@ -338,8 +368,10 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
 
 class TiltTableMethod(Averaging):
     """A spatial isotropic tilt density at a fixed W by its table in the incidence: built once
-    per (measure, W, flux) in 0.1–3 s, then microseconds per velocity. Declines measures too
-    rough for a table within its limits (a strongly anisotropic W).
+    per (measure, W, flux) in 0.1–3 s (up to ~1e-3 s a velocity of the batch on a strongly
+    anisotropic W), then microseconds per velocity. Declines measures too rough for a table
+    within its limits and that budget (a nearly singular W, or a small batch on a strongly
+    anisotropic one).
 
     Attributes
     ----------
@@ -360,7 +392,7 @@ class TiltTableMethod(Averaging):
         return len(U) >= self.min_rows or tilt_table(spec.roughness, W, spec.flux, build=False) is not None  # type: ignore[arg-type]
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
-        table = tilt_table(spec.roughness, W, spec.flux)  # type: ignore[arg-type]
+        table = tilt_table(spec.roughness, W, spec.flux, rows=len(U))  # type: ignore[arg-type]
         if table is None:
             return None
         N, D = table.integrals(U)

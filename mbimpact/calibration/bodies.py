@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..common.validation import as_scalar
-from ..errors import FitError
+from ..errors import FitError, ParameterError
 
 __all__ = ["Body", "Ball", "PointMass", "Motion", "as_body"]
 
@@ -100,7 +100,13 @@ class Ball(Body):
         object.__setattr__(self, "radius", as_scalar("radius", self.radius, 0.0, math.inf, lo_open=True))
         object.__setattr__(self, "mass", as_scalar("mass", self.mass, 0.0, math.inf, lo_open=True))
         if self.inertia is None:
-            object.__setattr__(self, "inertia", 0.4 * self.mass * self.radius**2)
+            # products, not radius**2: a float power raises a bare OverflowError where a product gives inf
+            inertia = 0.4 * self.mass * self.radius * self.radius
+            if not 0.0 < inertia < math.inf:  # A = diag(m, I) would be singular or infinite
+                raise ParameterError(f"the solid-sphere inertia 2/5 m R² of mass {self.mass:g} and radius "
+                                     f"{self.radius:g} is {inertia:g}; it must be finite and > 0: change units "
+                                     "or give inertia=...")
+            object.__setattr__(self, "inertia", inertia)
         else:
             object.__setattr__(self, "inertia", as_scalar("inertia", self.inertia, 0.0, math.inf, lo_open=True))
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -44,6 +44,10 @@ __all__ = ["Fit", "fit"]
 PENALTY = 10.0
 #: Relative step of the finite-difference Jacobian: well above the integrators' noise (≈ 1e-6).
 DIFF_STEP = 1e-3
+#: Upper bounds of ``starts`` and ``max_nfev``: they keep a typo from turning into days of fitting.
+MAX_STARTS = 10_000
+MAX_NFEV = 1_000_000
+_EPS = float(np.finfo(float).eps)  # least_squares warns on tolerances below it
 #: Parameters that make the problem non-convex (several starts by default).
 _NONCONVEX = {"sigma", "alpha", "kt", "hc"}
 
@@ -136,15 +140,15 @@ def fit(
     table: ImpactTable,
     law: str | ImpactLaw = "rough-coulomb",
     body: Body | object | None = None,
-    free: tuple[str, ...] | None = None,
+    free: str | tuple[str, ...] | None = None,
     *,
     fixed: Mapping[str, float] | None = None,
     bounds: Mapping[str, tuple[float, float]] | None = None,
-    quantities: tuple[str, ...] | None = None,
+    quantities: str | tuple[str, ...] | None = None,
     weights: Mapping[str, float] | None = None,
     speed: float | None = None,
     starts: int | None = None,
-    seed: int = 0,
+    seed: int | None = 0,
     max_nfev: int = 50,
     tol: float = 1e-5,
 ) -> Fit:
@@ -161,13 +165,13 @@ def fit(
         What strikes: a :class:`Ball`, a :class:`PointMass`, or an :class:`mbimpact.Sphere` with a
         ``mass`` (taken as a solid ball); default the table's ``body`` metadata, else the contact
         point (:class:`PointMass`).
-    free : tuple of str, optional
+    free : str or tuple of str, optional
         Parameters to fit (default: all of the law's, :func:`law_parameters`).
     fixed : mapping, optional
         Values for parameters that are not fitted (default: the template's).
     bounds : mapping of str to (lower, upper), optional
         Bounds replacing :data:`mbimpact.calibration.parameters.PARAMETERS`'.
-    quantities : tuple of str, optional
+    quantities : str or tuple of str, optional
         Columns to fit (default: all with data).
     weights : mapping of str to float, optional
         Weight of each column's dimensionless residuals (default 1).
@@ -175,16 +179,17 @@ def fit(
         Impact speed (m/s) when the table has no ``speed`` column; needed for ``spin`` and for
         speed-dependent laws.
     starts : int, optional
-        Starting points (default: 1 for Newton's and Coulomb's laws, 4 when roughness, stiffness
-        ratio or Hunt–Crossley damping is free).
-    seed : int
-        Seed of the random starting points.
+        Starting points, 1 … :data:`MAX_STARTS` (default: 1 for Newton's and Coulomb's laws, 4 when
+        roughness, stiffness ratio or Hunt–Crossley damping is free).
+    seed : int or None
+        Seed of the random starting points: an integer ≥ 0, or None for fresh entropy.
     max_nfev : int
-        Iterations (residual evaluations without the Jacobian's) per start.
+        Iterations (residual evaluations without the Jacobian's) per start, 1 … :data:`MAX_NFEV`.
     tol : float
         Relative change of the cost and of the parameters at which a start has converged
-        (``ftol`` and ``xtol`` of ``least_squares``); the compliant facets' integration makes
-        the residuals noisy (~1e-6 to 1e-5 of the predictions), so much tighter is pointless.
+        (``ftol`` and ``xtol`` of ``least_squares``), in [machine epsilon, 1); the compliant facets'
+        integration makes the residuals noisy (~1e-6 to 1e-5 of the predictions), so much tighter
+        is pointless.
 
     Returns
     -------
@@ -194,7 +199,7 @@ def fit(
     ------
     FitError
         Unknown parameters or columns, no data, a body that cannot give a column, no speed
-        where one is needed.
+        where one is needed, a ``starts``, ``seed``, ``max_nfev`` or ``tol`` out of its range.
     """
     if not isinstance(table, ImpactTable):
         raise FitError(f"table must be an ImpactTable (ImpactTable.from_csv(path)), got {type(table).__name__}")
@@ -203,10 +208,15 @@ def fit(
     if not isinstance(template, ImpactLaw):
         raise FitError(f"law must be a family name or an ImpactLaw, got {law!r}")
     values = law_parameters(template)
+    # dict() and .items() of anything but a mapping fail with bare TypeErrors: name the argument instead
+    for arg, given, example in (("fixed", fixed, "{'e': 0.8}"), ("bounds", bounds, "{'e': (0.5, 1.0)}"),
+                                ("weights", weights, "{'kappa': 2.0}")):
+        if given is not None and not isinstance(given, Mapping):
+            raise FitError(f"{arg} must be a mapping such as {example}, got {type(given).__name__}")
     if fixed:
         template = with_parameters(template, dict(fixed))
         values = law_parameters(template)
-    free = tuple(values) if free is None else tuple(free)
+    free = tuple(values) if free is None else _names("free", free)
     unknown = [p for p in free if p not in values]
     if unknown or not free:
         raise FitError(f"free parameters must be some of {', '.join(values)} (those of {template!r}); got {free!r}")
@@ -214,14 +224,15 @@ def fit(
         raise FitError(f"parameters {sorted(set(fixed) & set(free))} are both free and fixed")
     lo, hi = _bounds(free, bounds)
     body = as_body(body) if body is not None else (table.body() or PointMass())
-    cols = table.quantities if quantities is None else tuple(quantities)
+    cols = table.quantities if quantities is None else _names("quantities", quantities)
     missing = [q for q in cols if q not in table.quantities]
     if missing or not cols:
         raise FitError(f"columns {missing or cols} have no data in {table.name}; it has {', '.join(table.quantities)}")
     speeds = _speeds(table, template, cols, speed)
     weight = {q: 1.0 for q in cols} | dict(weights or {})
-    if any(not (w >= 0 and math.isfinite(w)) for w in weight.values()):
-        raise FitError(f"weights must be finite and ≥ 0, got {dict(weights or {})}")
+    if any(isinstance(w, bool) or not isinstance(w, (int, float, np.integer, np.floating))
+           or not (w >= 0 and math.isfinite(w)) for w in weight.values()):
+        raise FitError(f"weights must be finite numbers ≥ 0, got {dict(weights or {})}")
     # the cells that enter: data present, prediction defined (tangential ratios need θ > 0)
     obs = {q: table.values(q) for q in cols}
     use = {q: ~np.isnan(obs[q]) & ((table.theta_deg > 0) | (q not in ("et", "et_cp"))) for q in cols}
@@ -247,9 +258,13 @@ def fit(
 
     x0 = np.clip([values[p] for p in free], lo, hi)
     n_starts = starts if starts is not None else (4 if _NONCONVEX & set(free) else 1)
-    if not (isinstance(n_starts, int) and n_starts >= 1):
-        raise FitError(f"starts must be an integer ≥ 1, got {starts!r}")
-    rng = np.random.default_rng(seed)
+    n_starts = _count("starts", n_starts, MAX_STARTS)
+    # scipy raises bare errors on max_nfev ≤ 0, loops without end on a fractional one, and warns on a tol < ε
+    max_nfev = _count("max_nfev", max_nfev, MAX_NFEV)
+    if isinstance(tol, bool) or not isinstance(tol, (int, float, np.integer, np.floating)) \
+            or not _EPS <= tol < 1.0:
+        raise FitError(f"tol must be a number in [{_EPS:.3g}, 1) (machine epsilon to 1), got {tol!r}")
+    rng = np.random.default_rng(_seed(seed))
     points = [x0] + [rng.uniform(lo, hi) for _ in range(n_starts - 1)]
     best = None
     for point in points:
@@ -285,6 +300,32 @@ def fit(
     )
 
 
+def _names(what: str, value: object) -> tuple[str, ...]:
+    """``value`` as a tuple of names: one str is one name (``tuple("mu")`` would split it into letters)."""
+    if isinstance(value, str):
+        return (value,)
+    names: tuple[object, ...] | None = tuple(value) if isinstance(value, Iterable) else None
+    if names is None or not all(isinstance(n, str) for n in names):
+        raise FitError(f"{what} must be a name or a tuple of names (str), got {value!r}")
+    return tuple(str(n) for n in names)
+
+
+def _count(name: str, value: object, hi: int) -> int:
+    """``value`` checked to be an integer in [1, ``hi``] (a bool is not a count)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= hi:
+        raise FitError(f"{name} must be an integer in [1, {hi}], got {value!r}")
+    return int(value)
+
+
+def _seed(seed: object) -> int | None:
+    """``seed`` checked: numpy's ``default_rng`` raises bare ValueError/TypeError on a negative or non-integer one."""
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise FitError(f"seed must be an integer ≥ 0 (or None for a random one), got {seed!r}")
+    return int(seed)
+
+
 def _bounds(free: tuple[str, ...], given: Mapping[str, tuple[float, float]] | None
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     lo = np.array([PARAMETERS[p].lower for p in free])
@@ -296,8 +337,8 @@ def _bounds(free: tuple[str, ...], given: Mapping[str, tuple[float, float]] | No
             a, b = (float(v) for v in pair)
         except (TypeError, ValueError):
             raise FitError(f"bounds[{name!r}] must be (lower, upper), got {pair!r}") from None
-        if not a < b:
-            raise FitError(f"bounds[{name!r}] must have lower < upper, got {pair!r}")
+        if not (a < b and math.isfinite(a) and math.isfinite(b)):  # random starts are drawn between them
+            raise FitError(f"bounds[{name!r}] must be finite with lower < upper, got {pair!r}")
         i = free.index(name)
         lo[i], hi[i] = a, b
     return lo, hi
@@ -308,7 +349,7 @@ def _speeds(table: ImpactTable, law: ImpactLaw, cols: tuple[str, ...], speed: fl
     if table.speed is not None:
         return table.speed
     if speed is not None:
-        if not (isinstance(speed, (int, float)) and speed > 0 and math.isfinite(speed)):
+        if isinstance(speed, bool) or not (isinstance(speed, (int, float)) and speed > 0 and math.isfinite(speed)):
             raise FitError(f"speed must be a positive number of m/s, got {speed!r}")
         return np.full(len(table), float(speed))
     needs = "spin" in cols or (isinstance(law, RoughLaw) and not law.facet.homogeneous)

@@ -21,6 +21,7 @@ name       meaning                                 in
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -107,6 +108,9 @@ def with_parameters(law: ImpactLaw, values: dict[str, float]) -> ImpactLaw:
         A name the law does not have; an invalid value (the law's own error, re-raised).
     """
     have = law_parameters(law)
+    if not isinstance(values, Mapping):  # set() of it below would fail with a bare TypeError, or split a str
+        raise FitError(f"values must be a mapping of parameter name to value ({', '.join(have)}), "
+                       f"got {type(values).__name__}")
     unknown = set(values) - set(have)
     if unknown:
         raise FitError(f"{law!r} has no parameter(s) {sorted(unknown)}; it has {', '.join(have)}")
@@ -150,7 +154,7 @@ FAMILIES: dict[str, Any] = {
 
 def family(name: str) -> ImpactLaw:
     """The template law of a family name (:data:`FAMILIES`)."""
-    if name not in FAMILIES:
+    if not isinstance(name, str) or name not in FAMILIES:  # a list is unhashable: no bare TypeError
         raise FitError(f"unknown law family {name!r}; valid: {', '.join(FAMILIES)}")
     law: ImpactLaw = FAMILIES[name]()
     return law

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import FitError, ImpactWarning
 from ..laws.base import ImpactLaw
-from .bodies import Body, PointMass
+from .bodies import Body, PointMass, as_body
 from .quantities import QUANTITIES, predict_quantity
 
 __all__ = ["predict", "contact_dim"]
@@ -42,16 +43,33 @@ def predict(law: ImpactLaw, theta_deg: ArrayLike, body: Body | None = None, spee
     -------
     dict of str to ndarray, shape (B,)
         The columns of :data:`mbimpact.calibration.quantities.QUANTITIES` (see there for their meaning).
+
+    Raises
+    ------
+    FitError
+        A law or body of the wrong kind, incidences or speeds that are not real numbers in range,
+        unknown quantities, ``spin`` for a body without spin.
     """
-    body = PointMass() if body is None else body
-    theta = np.radians(np.atleast_1d(np.asarray(theta_deg, dtype=float)))
-    if theta.ndim != 1 or not np.all((theta >= 0) & (theta < np.pi / 2)):
-        raise FitError("theta_deg must be incidences in [0, 90) degrees from the normal (a 1-D array)")
-    speeds = np.broadcast_to(np.asarray(speed, dtype=float), theta.shape)
-    if not np.all(speeds > 0):
-        raise FitError("speed must be > 0 (m/s)")
+    if not isinstance(law, ImpactLaw):
+        raise FitError(f"law must be an impact law (NewtonLaw, RoughLaw, CoulombLaw, ...), got {type(law).__name__}")
+    body = PointMass() if body is None else as_body(body)
+    theta = np.radians(np.atleast_1d(_reals("theta_deg", theta_deg)))
+    if theta.ndim != 1 or not len(theta) or not np.all((theta >= 0) & (theta < np.pi / 2)):
+        raise FitError("theta_deg must be incidences in [0, 90) degrees from the normal (a non-empty 1-D array)")
+    given = _reals("speed", speed)
+    try:
+        speeds = np.broadcast_to(given, theta.shape)
+    except ValueError:  # numpy's broadcasting error (outside: a FitError is a ValueError too)
+        raise FitError(f"speed must be one value or one per incidence ({len(theta)}), got shape "
+                       f"{np.shape(speed)}") from None
+    if not np.all((speeds > 0) & np.isfinite(speeds)):
+        raise FitError("speed must be finite and > 0 (m/s)")
     if quantities is None:
         quantities = tuple(q for q in QUANTITIES if q != "spin" or body.has_spin)
+    elif isinstance(quantities, str):  # one name, not its letters
+        quantities = (quantities,)
+    if not isinstance(quantities, Iterable) or not all(isinstance(q, str) for q in quantities):
+        raise FitError(f"quantities must be a tuple of names ({', '.join(QUANTITIES)}), got {quantities!r}")
     unknown = [q for q in quantities if q not in QUANTITIES]
     if unknown:
         raise FitError(f"unknown quantities {unknown}; valid: {', '.join(QUANTITIES)}")
@@ -68,3 +86,17 @@ def predict(law: ImpactLaw, theta_deg: ArrayLike, body: Body | None = None, spee
     before, after = body.motion(V, d), body.motion(result.V_plus, d)
     mu = np.asarray(result.mu, dtype=float)
     return {q: predict_quantity(q, before, after, mu) for q in quantities}
+
+
+def _reals(name: str, x: ArrayLike) -> NDArray[np.float64]:
+    """``x`` as a float array; anything but real numbers is a FitError (casting complex would warn and drop
+    the imaginary part, a string or None would raise numpy's bare errors)."""
+    if x is None or isinstance(x, (str, bytes)):
+        raise FitError(f"{name} must be real numbers, got {type(x).__name__}")
+    try:
+        raw = np.asarray(x)
+    except (TypeError, ValueError, OverflowError):  # ragged nested sequences
+        raise FitError(f"{name} must be real numbers (a 1-D array)") from None
+    if raw.dtype.kind not in "biuf":
+        raise FitError(f"{name} must be real numbers, got an array of dtype {raw.dtype}")
+    return raw.astype(float)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -59,6 +60,15 @@ class ImpactTable:
     name: str = "table"
 
     def __post_init__(self) -> None:
+        # checked before dict(): None, a list, a string or a number fail there with a bare TypeError/ValueError
+        if not isinstance(self.columns, Mapping):
+            raise TableError("columns must be a mapping of quantity name to values, e.g. {'kappa': [0.8, 0.7]}; "
+                             f"got {type(self.columns).__name__}; valid names: " + ", ".join(QUANTITIES))
+        if not isinstance(self.meta, Mapping) or not all(isinstance(k, str) and isinstance(v, str)
+                                                         for k, v in self.meta.items()):
+            raise TableError(f"meta must be a mapping of str to str (e.g. {{'body': 'point'}}), got {self.meta!r}")
+        if not isinstance(self.name, str):
+            raise TableError(f"name must be a str (a label), got {type(self.name).__name__}")
         theta = _column("theta_deg", self.theta_deg, None)
         if not len(theta):
             raise TableError("a table needs at least one row")
@@ -90,42 +100,39 @@ class ImpactTable:
         Raises
         ------
         TableError
-            No such file, no header, an unknown column, a value that is not a number.
+            No such file, an unreadable one (not UTF-8 text, no permission), no header, a repeated or
+            unknown column, a value that is not a number.
         """
-        p = Path(path)
+        if not isinstance(path, (str, os.PathLike)):  # Path(None) would raise a bare TypeError
+            raise TableError(f"path must be a file path (str or Path) or a shipped name ({', '.join(data_names())}), "
+                             f"got {type(path).__name__}")
+        try:
+            p = Path(path)
+        except TypeError:  # a PathLike whose __fspath__ gives bytes
+            raise TableError(f"path must be a file path (str or Path), got {path!r}") from None
         if not p.is_file():
             if not p.suffix and (models_dir() / "data" / f"{p}.csv").is_file():
                 p = models_dir() / "data" / f"{p}.csv"
             else:
                 raise TableError(f"no data file {str(path)!r}; shipped data sets: {', '.join(data_names())}")
         meta: dict[str, str] = {}
-        last: str | None = None
-        rows: list[list[str]] = []
-        header: list[str] | None = None
-        with p.open(newline="", encoding="utf-8") as fh:
-            for lineno, line in enumerate(fh, 1):
-                stripped = line.strip()
-                if not stripped:
-                    continue
-                if stripped.startswith("#"):
-                    match = _KEY.match(stripped)
-                    if match:
-                        last = match.group(1)
-                        meta[last] = match.group(2).strip()
-                    elif last is not None:
-                        meta[last] += " " + stripped.lstrip("#").strip()
-                    continue
-                cells = next(csv.reader([stripped]))
-                if header is None:
-                    header = [c.strip() for c in cells]
-                    continue
-                if len(cells) != len(header):
-                    raise TableError(f"{p.name}, line {lineno}: {len(cells)} cells for {len(header)} columns")
-                rows.append([c.strip() for c in cells])
+        try:
+            header, rows = _read(p, meta)
+        except UnicodeDecodeError as exc:  # a ValueError, but not a named one
+            raise TableError(f"{p.name} is not UTF-8 text ({exc.reason} at byte {exc.start}); a table is a CSV "
+                             "text file") from None
+        except csv.Error as exc:
+            raise TableError(f"{p.name}: not a valid CSV table: {exc}") from None
+        except OSError as exc:
+            raise TableError(f"cannot read {str(p)!r}: {exc.strerror or exc}") from None
         if header is None:
             raise TableError(f"{p.name}: no header row (column names) found")
         if "theta_deg" not in header:
             raise TableError(f"{p.name}: a table needs a theta_deg column (incidence from the normal, degrees)")
+        repeated = sorted({h for h in header if header.count(h) > 1})
+        if repeated:  # the columns would be misaligned (a dict keeps one of each name)
+            raise TableError(f"{p.name}: column(s) {', '.join(map(repr, repeated))} appear more than once; "
+                             "each column must be named once")
         values: dict[str, list[float]] = {h: [] for h in header}
         for i, row in enumerate(rows):
             for h, cell in zip(header, row):
@@ -155,9 +162,9 @@ class ImpactTable:
     def body(self) -> Body | None:
         """The body named by the ``body`` metadata (``sphere radius=R mass=m`` or ``point``), or None."""
         text = self.meta.get("body")
-        if not text:
+        words = text.split() if text else []
+        if not words:  # blank, as an empty "# body:" line reads
             return None
-        words = text.split()
         kind, params = words[0].lower(), {}
         for word in words[1:]:
             if "=" not in word:
@@ -180,16 +187,65 @@ class ImpactTable:
         return self.meta.get("source", "")
 
 
+def _read(p: Path, meta: dict[str, str]) -> tuple[list[str] | None, list[list[str]]]:
+    """The header (None if there is none) and data rows of the table file ``p``; metadata go into ``meta``.
+
+    Raises TableError on a row of the wrong length; decoding, csv and file errors propagate (named by the caller).
+    """
+    last: str | None = None
+    rows: list[list[str]] = []
+    header: list[str] | None = None
+    with p.open(newline="", encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, 1):
+            stripped = line.strip()
+            if not stripped:
+                continue
+            if stripped.startswith("#"):
+                match = _KEY.match(stripped)
+                if match:
+                    last = match.group(1)
+                    meta[last] = match.group(2).strip()
+                elif last is not None:
+                    meta[last] += " " + stripped.lstrip("#").strip()
+                continue
+            cells = next(csv.reader([stripped]))
+            if header is None:
+                header = [c.strip() for c in cells]
+                continue
+            if len(cells) != len(header):
+                raise TableError(f"{p.name}, line {lineno}: {len(cells)} cells for {len(header)} columns")
+            rows.append([c.strip() for c in cells])
+    return header, rows
+
+
 def _column(name: str, values: ArrayLike, n: int | None) -> NDArray[np.float64]:
+    """``values`` as a read-only float vector (NaN or None at gaps), checked for ``n`` entries (if given)."""
+    gap = "" if name in ("theta_deg", "speed") else " (NaN or None for a gap)"  # those two have no gaps
+    valid = f"column {name} must hold real numbers{gap}"
+    if values is None or isinstance(values, (str, bytes)):
+        raise TableError(f"{valid}, got {type(values).__name__}")
     try:
-        a = np.array(values, dtype=float)
-    except (TypeError, ValueError):
-        raise TableError(f"column {name} must hold numbers (NaN for a gap)") from None
+        raw = np.asarray(values)
+    except (TypeError, ValueError, OverflowError):  # ragged nested sequences
+        raise TableError(f"{valid}, in a 1-D sequence") from None
+    # casting complex to float drops the imaginary part with a ComplexWarning: refuse it instead, also
+    # inside object arrays (None for a gap makes one); strings and dates are not numbers either
+    if raw.dtype.kind == "O":
+        bad = [x for x in raw.flat if isinstance(x, (str, bytes, complex, np.complexfloating))]
+        if bad:
+            raise TableError(f"{valid}, got {bad[0]!r}")
+    elif raw.dtype.kind not in "biuf":
+        kind = "a complex array (its imaginary part would be lost)" if raw.dtype.kind == "c" else f"dtype {raw.dtype}"
+        raise TableError(f"{valid}, got {kind}")
+    try:
+        a = raw.astype(float)  # always a copy: the table owns and freezes it
+    except (TypeError, ValueError, OverflowError):
+        raise TableError(valid) from None
     if a.ndim != 1 or (n is not None and len(a) != n):
         raise TableError(f"column {name} must be 1-D with {n if n is not None else 'one value a row'} entries, "
                          f"got shape {a.shape}")
     if np.isinf(a).any():
-        raise TableError(f"column {name} holds an infinite value")
+        raise TableError(f"column {name} holds an infinite value; values must be finite{gap}")
     a.setflags(write=False)
     return a
 

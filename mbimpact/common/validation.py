@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import NonFiniteError, ParameterError, ShapeError
 
-__all__ = ["as_array", "as_vector", "as_scalar", "as_count"]
+__all__ = ["as_array", "as_vector", "as_scalar", "as_count", "quiet_overflow", "check_in_range"]
 
 
 def as_array(name: str, x: ArrayLike, ndim: int, shape: tuple[int | None, ...] | None = None) -> NDArray[np.float64]:
@@ -101,3 +101,34 @@ def as_count(name: str, x: object, lo: int, hi: int) -> int:
     if not lo <= val <= hi:
         raise ParameterError(f"{name} = {val} is outside [{lo}, {hi}]")
     return int(val)
+
+
+def quiet_overflow() -> np.errstate:
+    """A context in which numpy's overflow and invalid-value warnings are silenced.
+
+    For arithmetic whose inputs are finite but may be extreme (velocities near the float
+    range, a Delassus matrix near underflow): what overflows is named afterwards by
+    :func:`check_in_range`, instead of leaking a RuntimeWarning or a NaN.
+    """
+    return np.errstate(over="ignore", invalid="ignore", divide="ignore")
+
+
+def check_in_range(what: str, *arrays: NDArray[np.float64]) -> None:
+    """Raise :class:`NonFiniteError` unless every entry of ``arrays`` is finite.
+
+    Small arrays are checked on Python floats, cheaper than a numpy reduction: a NaN or an
+    inf makes their sum NaN or inf, and so does a sum that overflows (results within a factor
+    of their length of the largest float count as overflowed too).
+    """
+    total = 0.0
+    for a in arrays:
+        if a.size > 64:
+            if not bool(np.isfinite(a).all()):
+                total = math.nan
+        else:
+            total += sum(a.tolist() if a.ndim == 1 else a.ravel().tolist())
+    if not math.isfinite(total):
+        raise NonFiniteError(
+            f"{what}: beyond the float range (an entry is inf or NaN); the inputs are finite but too "
+            f"large or too small together (rescale the velocities, or the units of A and J)"
+        )

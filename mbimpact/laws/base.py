@@ -22,8 +22,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import DEGENERATE
-from ..common.validation import as_array
-from ..errors import NoImpactError, NoSeparationWarning, RoughnessError, ShapeError, warn
+from ..common.validation import as_array, check_in_range, quiet_overflow
+from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
 from ..metric.delassus import ContactMetric, spread_bound
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
@@ -93,6 +93,15 @@ class ImpactLaw(ABC):
         if self.dim is not None and self.dim != d:
             raise RoughnessError(f"{self!r} needs a {self.dim}-D contact space but J has {d} rows")
         W, n0 = metric.W, R[:, -1]
+        check_in_range("the contact velocity", U)
+        with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
+            P, err, nodes, method = self._local_impulses(metric, W, U, R, n0)
+        check_in_range("the contact impulse P", P)
+        return ContactImpulses(P, err, nodes, method)
+
+    def _local_impulses(self, metric: ContactMetric, W: NDArray[np.float64], U: NDArray[np.float64],
+                        R: NDArray[np.float64], n0: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                                                   NDArray[np.float64], int, str]:
         un = U @ n0
         if not un.max() < 0.0:
             bad = np.flatnonzero(~(un < 0.0))
@@ -109,6 +118,7 @@ class ImpactLaw(ABC):
         # directions so that velocity scales far from 1 neither under- nor overflow.
         big = np.abs(U).max(axis=1)
         speed = big * np.linalg.norm(U / big[:, None], axis=1)
+        check_in_range("the magnitude |u| of the contact velocity", speed)
         # and of degree −1 in W: the law sees W of unit trace, whatever the units and scale of the
         # mechanism (mass matrices from 1e-100 to 1e100 neither under- nor overflow inside it)
         W_local = R.T @ W @ R
@@ -132,24 +142,28 @@ class ImpactLaw(ABC):
             # rank-deficient J: report the minimum-norm impulse, the only one that
             # does not depend on how the quadrature split the part in null(Jᵀ)
             P = P @ proj
-        return ContactImpulses(P * (speed / w_scale)[:, None], err, nodes, method)
+        return P * (speed / w_scale)[:, None], err, nodes, method
 
     # ------------------------------------------------------------------ single
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         """The impact at a validated metric, velocity ``v`` (n,) and contact frame ``R`` (d, d)."""
         # (ndarray.dot rather than @ on this path: the same BLAS call, without the generalised ufunc's overhead)
-        u = metric.J.dot(v)
-        single = self._single_impulse(metric, u, R) if self._single_route() else None
-        if single is None:
-            out = self.impulses(metric, u[None, :], R)
-            P, err, nodes, method, speed = out.P[0], float(out.error[0]), out.nodes, out.method, None
-        else:
-            P, err, nodes, method, speed = single
-        dv = metric.AinvJt.dot(P)
-        u_plus = u + metric.W.dot(P)
+        with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
+            u = metric.J.dot(v)
+            check_in_range("the contact velocity J v", u)
+            single = self._single_impulse(metric, u, R) if self._single_route() else None
+            if single is None:
+                out = self.impulses(metric, u[None, :], R)
+                P, err, nodes, method, speed = out.P[0], float(out.error[0]), out.nodes, out.method, None
+            else:
+                P, err, nodes, method, speed = single
+            dv = metric.AinvJt.dot(P)
+            u_plus = u + metric.W.dot(P)
+            v_plus = v + dv
+        check_in_range("the impact's outcome (P, v₊ or u₊)", P, v_plus, u_plus)
         n0 = R[:, -1].copy()
         result = ImpactResult(
-            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0, A=metric.A, J=metric.J,
+            v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0, A=metric.A, J=metric.J,
             law=self, error_estimate=err, nodes=nodes, method=method,
         )
         # result.separates, in floats where |u₋| is at hand
@@ -191,6 +205,9 @@ class ImpactLaw(ABC):
         big = max(abs(u0), abs(u1), abs(u2))
         t0, t1, t2 = u0 / big, u1 / big, u2 / big
         speed = big * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if speed == math.inf:
+            raise NonFiniteError("the magnitude |u| of the contact velocity: beyond the float range (inf); "
+                                 "the inputs are finite but too large together (rescale the velocities)")
         if rl == _EYE3:
             out = self.contact_impulses(W / (w00 + w11 + w22), (u / speed)[None, :])
             P = out.P[0] * (speed / (w00 + w11 + w22))
@@ -233,6 +250,28 @@ class ImpactLaw(ABC):
         v = as_array("v", v, 1, (metric.n,))
         return self.apply_metric(metric, v, local_basis(frame, metric.d))
 
+    # ------------------------------------------------------------------ stacks
+    def apply_stack(self, A: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
+                    R: NDArray[np.float64]) -> BatchResult | None:
+        """Impacts at many configurations at once, vectorised across rows, or None.
+
+        A law whose contact impulse is a closed form in (W, u) overrides this; the others
+        return None and :func:`mbimpact.impact_batch` applies them row by row. None also
+        means "not for these rows" (a degenerate row the row-by-row route names or treats).
+
+        Parameters
+        ----------
+        A : ndarray, shape (B, n, n)
+            Validated mass matrices (symmetric, finite).
+        J : ndarray, shape (B, d, n)
+            Contact Jacobians.
+        V : ndarray, shape (B, n)
+            Pre-impact velocities.
+        R : ndarray, shape (B, d, d)
+            Contact frames, last columns n⁰.
+        """
+        return None
+
     # ------------------------------------------------------------------ batch
     def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:
         """:meth:`apply` for many velocities at one configuration, vectorised.
@@ -254,11 +293,15 @@ class ImpactLaw(ABC):
         if not len(V):
             raise ShapeError("V must have at least one row (one velocity per impact)")
         R = local_basis(frame, metric.d)
-        U = V @ metric.J.T
-        out = self.impulses(metric, U, R)
-        dV = out.P @ metric.AinvJt.T
+        with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
+            U = V @ metric.J.T
+            check_in_range("the contact velocities J v", U)
+            out = self.impulses(metric, U, R)
+            dV = out.P @ metric.AinvJt.T
+            V_plus, U_plus = V + dV, U + out.P @ metric.W
+        check_in_range("the impacts' outcome (V₊ or U₊)", V_plus, U_plus)
         result = BatchResult(
-            V_minus=V.copy(), V_plus=V + dV, dV=dV, P=out.P, U_minus=U, U_plus=U + out.P @ metric.W,
+            V_minus=V.copy(), V_plus=V_plus, dV=dV, P=out.P, U_minus=U, U_plus=U_plus,
             n0=R[:, -1].copy(), A=metric.A, J=metric.J, law=self, error_estimate=out.error, nodes=out.nodes,
             method=out.method,
         )

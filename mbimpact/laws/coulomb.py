@@ -60,7 +60,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..common.geometry import DEGENERATE
-from ..common.validation import as_scalar
+from ..common.validation import as_scalar, check_in_range, quiet_overflow
 from ..errors import IntegrationError, NoSeparationWarning, ParameterError, warn
 from ..metric.delassus import ContactMetric
 from ..results.impact import ContactImpulses, ImpactResult
@@ -88,6 +88,11 @@ _MAX_STEPS = 100_000
 _FREE, _STICK, _RESLIP, _SLIP = 0, 1, 2, 3
 
 
+# Friction coefficients beyond it are sticks within 1e-6 (a slip stops within a normal impulse
+# 1/(μ α_min) of the impact's), and their slip stages fall below what the phases resolve.
+_MU_MAX = 1e6
+
+
 class CoulombLaw(ImpactLaw):
     """Impact with Coulomb friction throughout, in generalised coordinates.
 
@@ -99,7 +104,8 @@ class CoulombLaw(ImpactLaw):
     e : float, optional
         Coefficient of restitution in [0, 1] (meaning set by ``restitution``).
     mu : float
-        Coulomb friction coefficient, ≥ 0.
+        Coulomb friction coefficient in [0, 1e6] (beyond, friction is a stick to within 1e-6
+        and the slip stops too early in the impact to be resolved).
     restitution : {"newton", "poisson", "energetic"}
         End-of-impact hypothesis; "energetic" (Stronge) never creates energy.
     k : float, optional
@@ -136,8 +142,8 @@ class CoulombLaw(ImpactLaw):
         rtol: float = 1e-10,
     ) -> None:
         self.e = restitution_from(e, k)
-        self.mu = as_scalar("mu", mu, 0.0, math.inf)
-        if restitution not in _RESTITUTION:
+        self.mu = as_scalar("mu", mu, 0.0, _MU_MAX)
+        if not isinstance(restitution, str) or restitution not in _RESTITUTION:
             raise ParameterError(f"restitution must be one of {', '.join(_RESTITUTION)}; got {restitution!r}")
         self.restitution = restitution
         self.rtol = as_scalar("rtol", rtol, 1e-14, 1e-2)
@@ -189,7 +195,9 @@ class CoulombLaw(ImpactLaw):
         general route, which names the error or reports the minimum-norm impulse.
         """
         J = metric.J
-        u = J @ v
+        with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
+            u = J @ v
+        check_in_range("the contact velocity J v", u)
         n0 = R[:, -1]
         ul = (u @ R).tolist()  # local frame
         if not ul[-1] < 0.0:
@@ -203,11 +211,14 @@ class CoulombLaw(ImpactLaw):
         big = max(abs(x) for x in ul)
         speed = big * math.sqrt(sum((x / big) ** 2 for x in ul))
         P_local, steps = _Impact(self, setup, [x / speed for x in ul]).run()
-        P = R @ np.array(P_local) * (speed / setup.tr)
-        dv = metric.AinvJt @ P
-        u_plus = u + W @ P
+        with quiet_overflow():
+            P = R @ np.array(P_local) * (speed / setup.tr)
+            dv = metric.AinvJt @ P
+            u_plus = u + W @ P
+            v_plus = v + dv
+        check_in_range("the impact's outcome (P, v₊ or u₊)", P, v_plus, u_plus)
         result = ImpactResult(
-            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0.copy(),
+            v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0.copy(),
             A=metric.A, J=J, law=self, error_estimate=self.rtol if steps else 0.0, nodes=max(steps, 1),
             method="impulse-space",
         )

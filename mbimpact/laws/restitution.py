@@ -9,6 +9,7 @@ ratio k only, not on the stiffness M.
 from __future__ import annotations
 
 import math
+import sys
 
 from ..common.validation import as_scalar
 from ..errors import ParameterError
@@ -47,19 +48,41 @@ def k_from_e(e: float) -> float:
     if e == 0.0:
         return 1.0
     ln = math.log(e)
-    return -ln / math.sqrt(math.pi**2 + ln * ln)
+    return abs(ln) / math.sqrt(math.pi**2 + ln * ln)  # |ln e| = -ln e, but +0.0 (not -0.0) at e = 1
 
 
 def impact_duration(M: float, k: float) -> float:
     """Duration tau = pi / (M sqrt(1 - k²)) of one facet impact, (2.5).
 
     Infinite for k = 1 (the critically damped contact never separates).
+
+    Parameters
+    ----------
+    M : float
+        Facet stiffness parameter M > 0 of (2.4).
+    k : float
+        Damping ratio in [0, 1].
+
+    Raises
+    ------
+    ParameterError
+        ``M`` or ``k`` out of range, or an ``M`` so small (for this ``k``) that the duration
+        exceeds the largest float.
     """
     k = as_scalar("k", k, 0.0, 1.0)
     M = as_scalar("M", M, 0.0, math.inf, lo_open=True)
     if k == 1.0:
         return math.inf
-    return math.pi / (M * math.sqrt(1.0 - k * k))
+    # pi / √(1 - k²) first: at most ~2e8 for k < 1, whereas M √(1 - k²) underflows to 0 for a
+    # subnormal M (a ZeroDivisionError); a Python float quotient overflows to inf without a warning
+    ratio = math.pi / math.sqrt(1.0 - k * k)
+    tau = ratio / M
+    if not math.isfinite(tau):
+        raise ParameterError(
+            f"M = {M:g} is too small for k = {k!r}: the impact duration pi / (M sqrt(1 - k²)) exceeds the "
+            f"largest float; M must be at least {ratio / sys.float_info.max:.3g}"
+        )
+    return tau
 
 
 def restitution_from(e: float | None, k: float | None) -> float:

@@ -15,11 +15,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import ShapeError
-from ..metric.basis import local_basis
+from ..errors import ParameterError, ShapeError
+from ..metric.basis import check_dimension, local_basis
 from .mechanism import Mechanism
 
 __all__ = ["Contact", "PointContact", "unit_vector"]
+
+# Largest offset of a contact point from its frame: the offset enters J through [r]ₓ J_ang, and J
+# enters the impact squared (J Jᵀ, J A⁻¹ Jᵀ), which overflows for entries beyond ~1e154.
+_MAX_OFFSET = 1e150
 
 
 def unit_vector(name: str, x: ArrayLike) -> NDArray[np.float64]:
@@ -60,12 +64,20 @@ class PointContact(Contact):
     normal : array_like, shape (3,)
         Base normal n⁰ of the surface in the world frame (normalised here).
     point : array_like, shape (3,)
-        Offset of the contact point from the frame origin, in the frame's axes.
+        Offset of the contact point from the frame origin, in the frame's axes; entries
+        at most 1e150 in magnitude.
     tangent : array_like, shape (3,), optional
         First tangent direction of the local facet frame (projected orthogonal to
         n⁰). For a spatial contact it orients anisotropic facet sets; for a planar
         contact (a law whose roughness is 2-D) it spans, with n⁰, the plane of
         motion. Default: the world axis least aligned with n⁰, projected.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError
+        A vector of the wrong shape, zero or non-finite; a tangent parallel to the normal.
+    ParameterError
+        An offset ``point`` beyond 1e150.
     """
 
     frame: str
@@ -80,7 +92,14 @@ class PointContact(Contact):
             raise ShapeError(f"frame must be a frame name (str), got {type(self.frame).__name__}")
         n0 = unit_vector("normal", self.normal)
         object.__setattr__(self, "normal", n0)
-        object.__setattr__(self, "point", as_array("point", self.point, 1, (3,)))
+        point = as_array("point", self.point, 1, (3,))
+        big = float(np.max(np.abs(point)))
+        if not big <= _MAX_OFFSET:
+            raise ParameterError(
+                f"point = {point.tolist()} lies too far from the frame origin: its entries must be at most "
+                f"{_MAX_OFFSET:g} in magnitude (the Jacobian of a point that far, squared in J A⁻¹ Jᵀ, overflows)"
+            )
+        object.__setattr__(self, "point", point)
         if self.tangent is not None:
             t = unit_vector("tangent", self.tangent)
             t = t - (t @ n0) * n0
@@ -103,6 +122,8 @@ class PointContact(Contact):
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         Jp = mech.frame_jacobian(q, mech.frame_id(self.frame), self._offset)
         R = self._basis
+        if d.__class__ is not int:  # an array would make `d == 3` ambiguous
+            d = check_dimension(d)
         if d == 3:
             return Jp, R
         if d == 2:

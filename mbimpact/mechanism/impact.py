@@ -8,7 +8,8 @@ from __future__ import annotations
 
 
 import numpy as np
-from numpy.typing import ArrayLike
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
 from ..errors import ParameterError, ShapeError
@@ -79,11 +80,41 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
     -------
     BatchResult
         With per-row ``A`` (B, nv, nv) and ``J`` (B, d, nv).
+
+    Notes
+    -----
+    Pinocchio's work (J, R and A per row) runs in one lean loop; a law with a closed
+    form (:meth:`ImpactLaw.apply_stack`: Newton's) then treats all rows at once with
+    batched LAPACK. The other laws, and batches with a degenerate row, are applied row
+    by row as :func:`impact` does (the same errors, naming the first bad row).
     """
     _check_parts(mech, contact, law)
     Q = as_array("Q", Q, 2, (None, mech.nq))
     V = as_array("V", V, 2, (Q.shape[0], mech.nv))
     if not len(Q):
         raise ShapeError("Q and V must have at least one row")
+    stacked = _stacked(mech, Q, V, contact, law) if len(Q) > 1 else None
+    if stacked is not None:
+        return stacked
     results = [impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
     return BatchResult.stack(results)
+
+
+def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], contact: Contact, law: ImpactLaw
+             ) -> BatchResult | None:
+    """The vectorised route of :func:`impact_batch`, or None (the law has none, or a row needs the
+    row-by-row route)."""
+    if type(law).apply_stack is ImpactLaw.apply_stack:
+        return None
+    d = law.dim or 3
+    J0, R0 = contact.jacobian(mech, mech.check_configuration(Q[0]), d)
+    B, n = len(Q), mech.nv
+    A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
+    # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
+    model, data, unit = mech.model, mech.workspace().data, mech.nq != mech.nv
+    for i, q in enumerate(Q):
+        if unit:
+            mech.check_configuration(q)
+        J[i], R[i] = contact.jacobian(mech, q, d)
+        A[i] = pin.crba(model, data, q)  # as Mechanism.mass_matrix, copied into the stack
+    return law.apply_stack(A, J, V, R)

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import ShapeError
+from ..errors import ParameterError, ShapeError
 
 __all__ = ["local_basis"]
 
@@ -32,11 +32,13 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
 
     Raises
     ------
+    ParameterError
+        ``d`` is not an integer (an array, a string, None, 2.5).
     ShapeError
         ``d`` is not 2 or 3, the normal is zero, or the matrix is not a rotation.
     """
-    if d not in (2, 3):
-        raise ShapeError(f"contact-space dimension must be 2 or 3, got {d}")
+    if d.__class__ is not int or not (d == 2 or d == 3):  # the hot path's int costs one comparison
+        d = check_dimension(d)
     try:
         ndim = np.ndim(frame)
     except ValueError as exc:  # ragged nested sequences
@@ -68,3 +70,20 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
         f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}), "
         f"to match J with {d} rows; got shape {f.shape}"
     )
+
+
+def check_dimension(d: object) -> int:
+    """``d`` as the int 2 or 3: an integer, or an integral float (``3.0``), as counts elsewhere.
+
+    Tested by type before any comparison: ``d in (2, 3)`` on an array raises numpy's ambiguous-truth
+    ValueError, and on a one-element array passes.
+    """
+    if isinstance(d, (int, np.integer)) and not isinstance(d, (bool, np.bool_)):
+        value = int(d)
+    elif isinstance(d, (float, np.floating)) and math.isfinite(d) and float(d).is_integer():
+        value = int(d)
+    else:
+        raise ParameterError(f"d, the contact-space dimension, must be the integer 2 or 3; got {d!r}")
+    if value not in (2, 3):
+        raise ShapeError(f"contact-space dimension must be 2 or 3, got {value}")
+    return value

@@ -12,6 +12,7 @@ which needs A⁻¹ along one direction only, pays for one solve.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
@@ -20,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import NotPositiveDefiniteError, ShapeError
+from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 
 if TYPE_CHECKING:
     from ..mechanism.mechanism import Mechanism
@@ -29,6 +30,9 @@ __all__ = ["ContactMetric", "spread_bound", "eigen_ratio"]
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9
+
+# The largest float: a Delassus matrix, or a bound on it, beyond it has overflowed.
+_FMAX = sys.float_info.max
 
 _T = TypeVar("_T")
 
@@ -70,7 +74,8 @@ class ContactMetric:
     AinvJt : ndarray, shape (n, d)
         A⁻¹ Jᵀ (computed on first use): maps a contact impulse P to Δv = A⁻¹ Jᵀ P.
     W : ndarray, shape (d, d)
-        Delassus matrix J A⁻¹ Jᵀ (on first use; exactly symmetric, positive semidefinite).
+        Delassus matrix J A⁻¹ Jᵀ (on first use; exactly symmetric, positive semidefinite);
+        a :class:`NonFiniteError` when it overflows.
     """
 
     A: NDArray[np.float64]
@@ -88,7 +93,10 @@ class ContactMetric:
 
         Raises
         ------
-        ShapeError, NonFiniteError, NotPositiveDefiniteError
+        ShapeError, NotPositiveDefiniteError
+            Invalid arrays.
+        NonFiniteError
+            A NaN or infinite entry, or a Delassus matrix J A⁻¹ Jᵀ bound to overflow.
         """
         A = as_array("A", A, 2)
         n = A.shape[0]
@@ -98,34 +106,71 @@ class ContactMetric:
         if J.shape[0] not in (2, 3) or J.shape[1] != n:
             raise ShapeError(f"J must have shape (d, {n}) with d = 2 or 3, got {J.shape}")
         scale = float(np.max(np.abs(A)))
-        asym = float(np.max(np.abs(A - A.T)))
+        if scale < 0.5 * _FMAX:
+            asym = float(np.max(np.abs(A - A.T)))
+        else:  # A - Aᵀ would overflow (a RuntimeWarning): in halves, which are exact
+            asym = 2.0 * float(np.max(np.abs(0.5 * A - 0.5 * A.T)))
         if asym > _SYMMETRY_RTOL * scale:
+            text = f"{asym:.3g}" if math.isfinite(asym) else f"beyond the largest float {_FMAX:.3g}"
             raise NotPositiveDefiniteError(
-                f"A is not symmetric: max |A - Aᵀ| = {asym:.3g} (max |A| = {scale:.3g})"
+                f"A is not symmetric: max |A - Aᵀ| = {text} (max |A| = {scale:.3g})"
             )
-        return cls.from_symmetric(A, J)
+        # W_ii = J_i A⁻¹ J_iᵀ ≥ |J_i|² / λ_max(A) ≥ max|J|² / (n max|A|): once that bound overflows, so
+        # does W; named here, before a law's products of J and A⁻¹ (J Jᵀ, n⁰ᵀ J A⁻¹ Jᵀ n⁰) warn. In floats
+        # (they never warn), on J's entries: cheaper than numpy's reductions on a small array
+        flat = J.ravel().tolist()
+        big = max(max(flat), -min(flat))
+        if scale > 0.0 and not (r := big / math.sqrt(n * scale)) * r < _FMAX:
+            raise NonFiniteError(
+                f"J A⁻¹ Jᵀ overflows: max |J| = {big:.3g} with max |A| = {scale:.3g} (n = {n}) gives a Delassus "
+                f"matrix beyond the largest float {_FMAX:.3g}; max |J|² / (n max |A|) must stay below it "
+                "(rescale the units of J or A)"
+            )
+        return cls.from_symmetric(A, J, scale)
 
     @classmethod
-    def from_symmetric(cls, A: NDArray[np.float64], J: NDArray[np.float64]) -> ContactMetric:
+    def from_symmetric(cls, A: NDArray[np.float64], J: NDArray[np.float64], scale: float | None = None
+                       ) -> ContactMetric:
         """For a mass matrix known to be symmetric and finite: only positive definiteness is
-        checked, by the Cholesky factorisation itself."""
-        # scaled first: a Cholesky of 1e300·I overflows and of 1e-300·I underflows
-        scale = float(np.max(np.abs(np.diag(A)))) if A.size else 1.0
+        checked, by the Cholesky factorisation itself.
+
+        ``scale`` is max |A| when the caller has it at hand (:meth:`from_arrays`); for a positive
+        definite A it is the largest diagonal entry.
+
+        Raises
+        ------
+        NotPositiveDefiniteError
+            A is not positive definite (the message gives its smallest eigenvalue).
+        """
+        if scale is None:
+            scale = float(np.max(np.abs(A))) if A.size else 1.0
         if not scale > 0.0:
-            raise NotPositiveDefiniteError("A is not positive definite: its diagonal is zero")
+            raise NotPositiveDefiniteError("A is not positive definite: all its entries are zero")
+        # scaled first by 4ᵖ ≈ max|A| (a Cholesky of 1e300·I overflows and of 1e-300·I underflows), then
+        # the factor by 2ᵖ: both exact, so the solves equal those by the unscaled factor, and no division
+        # by the scale is left to overflow (a RuntimeWarning) where A⁻¹ b exceeds the float range
+        p = (math.frexp(scale)[1] - 1) // 2  # max |A| / 4ᵖ in [1, 4); 4ᵖ ≤ 2¹⁰²² is a float
+        unit = math.ldexp(1.0, 2 * p)
         try:
-            L = np.linalg.cholesky(A / scale)
+            L = np.linalg.cholesky(A / unit)
         except np.linalg.LinAlgError:
-            lam = float(np.linalg.eigvalsh(0.5 * (A + A.T))[0])
+            # on A / 4ᵖ, whose entries are below 4: ½(A + Aᵀ) of a huge A overflows
+            As = A / unit
+            rel = float(np.linalg.eigvalsh(0.5 * (As + As.T))[0])
+            lam = rel * unit  # in floats: beyond the float range it is ±inf, without a warning
+            text = f"{lam:.6g}" if math.isfinite(lam) else f"{rel:.6g}·4^{p} (beyond the float range)"
             raise NotPositiveDefiniteError(
-                f"A is not positive definite: smallest eigenvalue {lam:.6g} (must be > 0)"
+                f"A is not positive definite: smallest eigenvalue {text} (must be > 0)"
             ) from None
+        if p:
+            L *= math.ldexp(1.0, p)
         _freeze(A, J)
 
         def solve(b: NDArray[np.float64]) -> NDArray[np.float64]:
             import scipy.linalg  # deferred: the import costs more than most impacts
 
-            return scipy.linalg.cho_solve((L, True), b, check_finite=False) / scale
+            # LAPACK's solve: an A⁻¹ b beyond the float range comes out as inf, without a warning
+            return scipy.linalg.cho_solve((L, True), b, check_finite=False)
 
         return cls(A, J, solve)
 
@@ -163,7 +208,24 @@ class ContactMetric:
 
     @_lazy
     def W(self) -> NDArray[np.float64]:  # noqa: N802
-        W = self.J.dot(self.AinvJt).tolist()
+        # J A⁻¹ Jᵀ of a finite J and A overflows for a large J or a small (or ill-conditioned) A. In floats
+        # (they never warn), |W_ij| ≤ n max|J| max|A⁻¹Jᵀ|: below _FMAX / 18 the product cannot overflow
+        # and the sum of the |W_ij| stays below half the largest float (cheaper than numpy's errstate)
+        Y = self.AinvJt
+        bound = len(Y) * max(map(abs, self.J.ravel().tolist())) * max(map(abs, Y.ravel().tolist()))
+        if bound < _FMAX / 18.0:
+            W = self.J.dot(Y).tolist()
+        else:  # computed without numpy's RuntimeWarning, then named
+            with np.errstate(over="ignore", invalid="ignore"):
+                W = self.J.dot(Y).tolist()
+        # a NaN or inf entry makes the sum non-finite, and a sum of |W_ij| below half the largest float
+        # bounds W_ij + W_ji below, and every entry of Rᵀ W R, n⁰ᵀ W n⁰ and tr W that the laws compute
+        if not bound < _FMAX / 18.0 and not sum([abs(x) for row in W for x in row]) < 0.5 * _FMAX:
+            raise NonFiniteError(
+                f"the Delassus matrix W = J A⁻¹ Jᵀ overflows (max |J| = {float(np.max(np.abs(self.J))):.3g}, "
+                f"max |A| = {float(np.max(np.abs(self.A))):.3g}): the sum of its |W_ij| must stay below half "
+                f"the largest float, {0.5 * _FMAX:.3g} (rescale the units of J or A)"
+            )
         # exact symmetry, ½(W + Wᵀ); rounding would otherwise leak into mᵀWm (in floats: d ≤ 3)
         if len(W) == 3:
             (a, b, c), (d, e, f), (g, h, k) = W

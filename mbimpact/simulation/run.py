@@ -57,6 +57,7 @@ class RunBase:
     """One run of a scene: state, output and limits (see the module docstring)."""
 
     def __init__(self, scene: Scene, samples: int, progress: bool) -> None:
+        self.start = time.perf_counter()  # max_wall_time counts the set-up (a first import of scipy) too
         from scipy.integrate import DOP853  # deferred: scipy.integrate costs 0.1 s to import
 
         self.DOP853 = DOP853
@@ -90,7 +91,6 @@ class RunBase:
         self.out_active: list[tuple[bool, ...]] = []
         self.out_forces: list[NDArray[np.float64]] = []
         self.forces = np.zeros((self.nc, 3))  # mean contact forces over the last persistent-contact step
-        self.start = time.perf_counter()
         self.recent: deque[float] = deque()
         self.peak_rate = 0.0
         self.impacts = 0
@@ -98,6 +98,11 @@ class RunBase:
         self.free_flyer = self.model.njoints > 1 and self.model.joints[1].shortname() == "JointModelFreeFlyer"
         if self.free_flyer:
             self.mask[:6] = 0.0  # the free-flyer is not actuated
+        # the velocity-proportional torques −damper ∘ v (joint damping, the PD's kd): the stiff part of the
+        # dynamics, integrated implicitly (free flight: Radau when stiff; persistent contact: in the step)
+        self.damper = np.full(self.nv, scene.damping)
+        if scene.pd is not None:
+            self.damper += scene.pd.kd * self.mask
         freqs = [c.surface.frequency for c in scene.contacts if isinstance(c, SceneContact) and c.surface.moving]
         # a moving surface can cross a flight twice within a long step: a step is a fraction of its period
         self.max_step = min(1.0 / (16.0 * max(freqs)) if freqs else math.inf, scene.duration / 4)
@@ -105,23 +110,45 @@ class RunBase:
         self.shown = 0
 
     # ---------------------------------------------------------------- forces and dynamics
-    def torque(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    def torque(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], damped: bool = True
+               ) -> NDArray[np.float64]:
+        """The declared joint torques at (t, q, v); without the velocity-proportional ones (``damper``)
+        when not ``damped`` (an implicit step adds them itself)."""
         scene = self.scene
         tau = np.zeros(self.nv) if scene.torque is None else scene.torque.copy()
-        if scene.damping:
-            self.work["damping"] += 1
-            tau -= scene.damping * v
-        if scene.pd is not None:
-            self.work["pd"] += 1
-            err = pin.difference(self.model, q, scene.pd.q_ref)
-            tau += self.mask * (scene.pd.kp * err - scene.pd.kd * v)
+        # a trial state of a rejected step may be huge: an overflow here is caught as a non-finite
+        # result by the caller (a named status), not leaked as a RuntimeWarning
+        with np.errstate(over="ignore", invalid="ignore"):
+            if scene.damping:
+                self.work["damping"] += 1
+                if damped:
+                    tau -= scene.damping * v
+            if scene.pd is not None:
+                self.work["pd"] += 1
+                err = pin.difference(self.model, q, scene.pd.q_ref)
+                if damped:
+                    tau += self.mask * (scene.pd.kp * err - scene.pd.kd * v)
+                else:
+                    tau += self.mask * (scene.pd.kp * err)
         return tau
 
-    def acceleration(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+    def acceleration(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], damped: bool = True
+                     ) -> NDArray[np.float64]:
         self.work["dynamics"] += 1
         if self.scene.gravity:
             self.work["gravity"] += 1
-        return pin.aba(self.model, self.data, q, v, self.torque(t, q, v))
+        return pin.aba(self.model, self.data, q, v, self.torque(t, q, v, damped))
+
+    def damping_rate(self, q: NDArray[np.float64]) -> float:
+        """The fastest decay rate [1/s] of the velocity-proportional torques at q: max(damper) / λmin(A(q)),
+        an upper bound of the largest eigenvalue of A⁻¹ diag(damper). An explicit step longer than a few
+        times its inverse is unstable."""
+        top = float(self.damper.max(initial=0.0))
+        if top == 0.0:
+            return 0.0
+        A = pin.crba(self.model, self.data, q)
+        low = float(np.linalg.eigvalsh(A)[0])
+        return top / low if low > 0.0 else math.inf
 
     def configuration(self, anchor: NDArray[np.float64], dq: NDArray[np.float64]) -> NDArray[np.float64]:
         """anchor ⊕ dq (Pinocchio's integration: a free flyer moves along a screw)."""
@@ -175,11 +202,16 @@ class RunBase:
                                       f"before t = {e.t:.9g} (contact {e.contact}, {e.kind}): over "
                                       f"max_events_per_second = {self.scene.max_events_per_second:g}")
 
-    def check_limits(self, t: float) -> None:
+    def check_wall_time(self, t: float) -> None:
+        """Stop (status "wall_time") once the run has used ``max_wall_time``. Cheap (a clock read): it is
+        called inside the integrations too, so that a stiff or stalling step loop cannot overrun."""
         elapsed = time.perf_counter() - self.start
         if elapsed > self.scene.max_wall_time:
             raise Stop("wall_time", f"stopped at t = {t:.9g} s after {elapsed:.3g} s of wall time "
                                     f"(max_wall_time = {self.scene.max_wall_time:g} s)")
+
+    def check_limits(self, t: float) -> None:
+        self.check_wall_time(t)
         now = int(100 * t / self.scene.duration)
         while self.shown < min(now, 100):
             self.bar.step(f"t={t:.3g}s, {self.impacts} impacts")

@@ -24,19 +24,57 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array, as_count, as_scalar
 from ..errors import ImpactError, SceneError
 from ..geometry.shapes import Shape
 from ..laws.base import ImpactLaw
 from ..mechanism.mechanism import Mechanism
-from .surfaces import Surface
+from .surfaces import Surface, scene_errors
 
 __all__ = ["SceneContact", "SceneCollision", "Scene", "PD", "scene_names", "scene_path", "SIMULTANEOUS_RULES"]
 
+#: Largest joint damping [N s/m, N m s/rad]. Beyond it a joint with an inertia ≥ 1e-3 (kg, kg m²)
+#: stops within a nanosecond: a locked joint, to be modelled as fixed (near 1e308, −damping·v
+#: overflows). Up to it the stiffness of the damping is integrated implicitly (Radau in flight,
+#: :mod:`~mbimpact.simulation.flight`; the persistent-contact step, :mod:`~mbimpact.simulation.persistent`).
+DAMPING_MAX = 1e6
+
 #: Rules for contacts that strike together (:mod:`mbimpact.simulation.multi`).
 SIMULTANEOUS_RULES = ("auto", "newton", "rough", "compliant", "sequential")
+
+
+def unit_tangent(tangent: ArrayLike, normal: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """A contact's ``tangent`` as a unit vector (across ``normal``, when given).
+
+    Parameters
+    ----------
+    tangent : array_like, shape (3,)
+        Any finite nonzero vector, however large or small.
+    normal : ndarray, shape (3,), optional
+        The unit normal of the surface: the part of ``tangent`` along it is removed.
+
+    Raises
+    ------
+    SceneError
+        Not a finite (3,) vector, the zero vector, or parallel to ``normal``.
+    """
+    with scene_errors():
+        t = as_array("tangent", tangent, 1, (3,))
+    big = float(np.abs(t).max())
+    if big == 0.0:
+        raise SceneError("a contact's tangent must not be the zero vector; give a direction across the normal")
+    # scaled to a largest entry of 1 first: t·n and |t| of a huge (1e200) or tiny vector neither
+    # over- nor underflow, and the test for parallel below is relative
+    t = t / big
+    if normal is not None:
+        t = t - float(t @ normal) * normal
+    length = float(np.linalg.norm(t))
+    if not length > 1e-9:
+        raise SceneError("a contact's tangent must not be parallel to its surface normal; give a direction "
+                         "across the normal")
+    return t / length
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +109,10 @@ class SceneContact:
     stiffness: float = 1e5
 
     def __post_init__(self) -> None:
+        with scene_errors():
+            self._validate()
+
+    def _validate(self) -> None:
         if not isinstance(self.frame, str):
             raise SceneError(f"a contact's frame is a frame name, got {type(self.frame).__name__}")
         if not isinstance(self.law, ImpactLaw):
@@ -81,13 +123,7 @@ class SceneContact:
         object.__setattr__(self, "friction", as_scalar("friction", self.friction, 0.0, math.inf))
         object.__setattr__(self, "stiffness", as_scalar("stiffness", self.stiffness, 0.0, math.inf, lo_open=True))
         if self.tangent is not None:
-            t = as_array("tangent", self.tangent, 1, (3,))
-            n = self.surface.normal
-            t = t - float(t @ n) * n
-            if not np.linalg.norm(t) > 1e-9:
-                raise SceneError("a contact's tangent must not be parallel to its surface normal")
-            object.__setattr__(self, "tangent", t / np.linalg.norm(t))
-
+            object.__setattr__(self, "tangent", unit_tangent(self.tangent, self.surface.normal))
 
     @property
     def label(self) -> str:
@@ -132,6 +168,10 @@ class SceneCollision:
     stiffness: float = 1e5
 
     def __post_init__(self) -> None:
+        with scene_errors():
+            self._validate()
+
+    def _validate(self) -> None:
         body = self.body
         if isinstance(body, str):
             pass
@@ -155,10 +195,7 @@ class SceneCollision:
         object.__setattr__(self, "friction", as_scalar("friction", self.friction, 0.0, math.inf))
         object.__setattr__(self, "stiffness", as_scalar("stiffness", self.stiffness, 0.0, math.inf, lo_open=True))
         if self.tangent is not None:
-            t = as_array("tangent", self.tangent, 1, (3,))
-            if not np.linalg.norm(t) > 1e-9:
-                raise SceneError("a contact's tangent must not be the zero vector")
-            object.__setattr__(self, "tangent", t / np.linalg.norm(t))
+            object.__setattr__(self, "tangent", unit_tangent(self.tangent))
 
     @property
     def concrete(self) -> bool:
@@ -217,6 +254,10 @@ class PD:
     q_ref: NDArray[np.float64]
 
     def __post_init__(self) -> None:
+        with scene_errors("pd: "):
+            self._validate()
+
+    def _validate(self) -> None:
         object.__setattr__(self, "kp", as_scalar("kp", self.kp, 0.0, math.inf))
         object.__setattr__(self, "kd", as_scalar("kd", self.kd, 0.0, math.inf))
         object.__setattr__(self, "q_ref", as_array("q_ref", self.q_ref, 1))
@@ -235,7 +276,8 @@ class Scene:
         Collision contacts are expanded to one per pair (see :class:`SceneCollision`).
     gravity : bool
     damping : float
-        Joint damping τ = −damping · v.
+        Joint damping τ = −damping · v, 0 ≤ damping ≤ :data:`DAMPING_MAX`. A stiff damping (fast decay
+        against the mass matrix) is integrated implicitly.
     torque : ndarray, shape (nv,), optional
         Constant joint torques.
     pd : PD, optional
@@ -299,6 +341,10 @@ class Scene:
     name: str = "scene"
 
     def __post_init__(self) -> None:
+        with scene_errors():
+            self._validate()
+
+    def _validate(self) -> None:
         mech = self.mechanism
         if not isinstance(mech, Mechanism):
             raise SceneError(f"mechanism must be an mbimpact.Mechanism, got {type(mech).__name__}")
@@ -308,13 +354,14 @@ class Scene:
             raise SceneError(f"initial state: {exc}") from exc
         object.__setattr__(self, "q0", q0.copy())
         object.__setattr__(self, "v0", v0.copy())
-        contacts = tuple(self.contacts)
+        contacts = self._contact_tuple()
         if not contacts:
             raise SceneError("a scene needs at least one contact")
         expanded: list[SceneContact | SceneCollision] = []
         for i, c in enumerate(contacts):
             if isinstance(c, SceneContact):
-                mech.frame_id(c.frame)
+                with scene_errors(f"contacts[{i}] ({c.label}): "):
+                    mech.frame_id(c.frame)
                 expanded.append(c)
             elif isinstance(c, SceneCollision):
                 try:
@@ -333,9 +380,15 @@ class Scene:
                 seen[key] = i
         contacts = tuple(expanded)
         object.__setattr__(self, "contacts", contacts)
-        if not isinstance(self.gravity, bool):
+        if not isinstance(self.gravity, (bool, np.bool_)):
             raise SceneError(f"gravity must be true or false, got {self.gravity!r}")
-        object.__setattr__(self, "damping", as_scalar("damping", self.damping, 0.0, math.inf))
+        object.__setattr__(self, "gravity", bool(self.gravity))
+        damping = as_scalar("damping", self.damping, -math.inf, math.inf)  # a finite real number
+        if not 0.0 <= damping <= DAMPING_MAX:
+            raise SceneError(f"damping = {damping:g} is outside [0, {DAMPING_MAX:g}]" + (
+                ": a larger damping stops a joint within nanoseconds (model a locked joint as fixed instead)"
+                if damping > 0.0 else ""))
+        object.__setattr__(self, "damping", damping)
         if self.torque is not None:
             object.__setattr__(self, "torque", as_array("torque", self.torque, 1, (mech.nv,)))
         if self.pd is not None:
@@ -353,16 +406,50 @@ class Scene:
         object.__setattr__(self, "chatter_time", as_scalar("chatter_time", chatter, 0.0, math.inf))
         object.__setattr__(self, "max_impacts", as_count("max_impacts", self.max_impacts, 1, 10**9))
         object.__setattr__(self, "samples", as_count("samples", self.samples, 2, 10**6))
-        if self.simultaneous not in SIMULTANEOUS_RULES:
+        # a str first: `in` on an array compares elementwise, and its truth value is ambiguous
+        if not isinstance(self.simultaneous, str) or self.simultaneous not in SIMULTANEOUS_RULES:
             raise SceneError(f"simultaneous must be one of {', '.join(SIMULTANEOUS_RULES)}; got {self.simultaneous!r}")
-        record = tuple(self.record)
+        object.__setattr__(self, "record", self._record_tuple())
+        if not isinstance(self.name, str):
+            raise SceneError(f"name must be a string, got {type(self.name).__name__}")
+        self._check_start()
+
+    def _contact_tuple(self) -> tuple[object, ...]:
+        """``contacts`` as a tuple (its entries are checked by the caller)."""
+        contacts = self.contacts
+        if isinstance(contacts, (SceneContact, SceneCollision)):
+            raise SceneError("contacts must be a list or tuple of SceneContact or SceneCollision; for one contact "
+                             "write (contact,)")
+        if isinstance(contacts, (str, bytes)):
+            raise SceneError(f"contacts must be a list or tuple of SceneContact or SceneCollision, got {contacts!r}")
+        try:
+            return tuple(contacts)
+        except TypeError:  # not iterable: None, a number, ...
+            raise SceneError(f"contacts must be a list or tuple of SceneContact or SceneCollision, got "
+                             f"{type(contacts).__name__}") from None
+
+    def _record_tuple(self) -> tuple[str, ...]:
+        """``record`` checked: a sequence of state names ``"q<i>"``, ``"v<i>"`` within the mechanism."""
+        mech = self.mechanism
+        valid = f"use q0…q{mech.nq - 1} or v0…v{mech.nv - 1}"
+        record = self.record
+        if isinstance(record, (str, bytes)) or not isinstance(record, (list, tuple, np.ndarray)):
+            raise SceneError(f"record must be a list or tuple of state names such as ['q0', 'v0'] ({valid}); "
+                             f"got {record!r}")
+        if isinstance(record, np.ndarray) and record.ndim != 1:
+            raise SceneError(f"record must be a flat list of state names ({valid}); got an array of shape "
+                             f"{record.shape}")
+        out = []
         for name in record:
+            if not isinstance(name, str):  # np.str_ is a str
+                raise SceneError(f"record entry {name!r} is not a state name: {valid}")
             kind, idx = name[:1], name[1:]
             size = mech.nq if kind == "q" else mech.nv
-            if kind not in ("q", "v") or not idx.isdigit() or int(idx) >= size:
-                raise SceneError(f"record entry {name!r}: use q0…q{mech.nq - 1} or v0…v{mech.nv - 1}")
-        object.__setattr__(self, "record", record)
-        self._check_start()
+            # ASCII digits only: int() also reads other scripts' digits, and isdigit() accepts '²'
+            if kind not in ("q", "v") or not (idx.isascii() and idx.isdigit()) or int(idx) >= size:
+                raise SceneError(f"record entry {name!r}: {valid}")
+            out.append(str(name))
+        return tuple(out)
 
     def _check_start(self) -> None:
         """A start inside a surface is an error (rule documented in the schema)."""
@@ -403,10 +490,21 @@ def scene_path(name: str | Path) -> Path:
     """A shipped scene by name, or a path to a TOML file."""
     from ..mechanism.robots import models_dir
 
+    if not isinstance(name, (str, Path)):  # Path() raises TypeError on None, numbers, ...
+        raise SceneError(f"a scene is a shipped scene's name ({', '.join(scene_names())}) or the path of a TOML "
+                         f"file, got {type(name).__name__}")
     p = Path(name)
-    if p.suffix == ".toml" and p.is_file():
+    if p.suffix == ".toml" and _is_file(p):
         return p
     shipped = models_dir() / "scenes" / f"{name}.toml"
-    if shipped.is_file():
+    if _is_file(shipped):
         return shipped
     raise SceneError(f"scene {str(name)!r} not found; shipped scenes: {', '.join(scene_names())}")
+
+
+def _is_file(p: Path) -> bool:
+    """``p.is_file()``, False where the OS cannot even look (a name too long, a NUL byte)."""
+    try:
+        return p.is_file()
+    except (OSError, ValueError):
+        return False

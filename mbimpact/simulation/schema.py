@@ -26,7 +26,7 @@ from ..laws.newton import NewtonLaw
 from ..laws.rough import RoughLaw
 from ..mechanism.mechanism import Mechanism
 from ..roughness import Cone, GaussianSlopes, Roughness, Sawtooth, Smooth
-from .scene import PD, SIMULTANEOUS_RULES, Scene, SceneCollision, SceneContact, scene_path
+from .scene import DAMPING_MAX, PD, SIMULTANEOUS_RULES, Scene, SceneCollision, SceneContact, scene_path
 from .surfaces import Surface
 
 __all__ = ["SCHEMA", "load_scene", "reference"]
@@ -83,7 +83,7 @@ _CONTACT = _table("a contact: a frame's point on a surface (frame = ...), or a c
     "surface": {"enum": ["plane", "paraboloid"], "description": "the surface", "default": "plane"},
     "normal": _vec("unit normal of the surface (normalised), out of it", 3, [0, 0, 1]),
     "origin": _vec("a point of the surface (a paraboloid's vertex) [m]", 3, [0, 0, 0]),
-    "rho": _num("paraboloid: radius of curvature on the axis [m], ≠ 0 (< 0: a dome)"),
+    "rho": _num("paraboloid: radius of curvature on the axis [m], |rho| ≥ 1e-6 (< 0: a dome)"),
     "tangent": _vec("with the normal, the plane of a planar roughness (default: world x projected)", 3),
     "law": {"enum": ["newton", "rough", "coulomb"],
             "description": "impact law (default: rough with a roughness, else newton)"},
@@ -152,7 +152,9 @@ SCHEMA: dict[str, Any] = _table("a scene", {
     "contacts": {"type": "array", "minItems": 1, "items": _CONTACT, "description": "[[contacts]] tables, at least one"},
     "forces": _table("the forces present, and only those", {
         "gravity": {"type": "boolean", "description": "gravity along −z", "default": True},
-        "damping": _num("joint damping: τ = −damping · v, ≥ 0", 0.0, default=0.0),
+        # the upper bound DAMPING_MAX is checked by Scene, whose message says why (a locked joint)
+        "damping": _num(f"joint damping: τ = −damping · v, 0 ≤ damping ≤ {DAMPING_MAX:g} (beyond: a locked joint)",
+                        0.0, default=0.0),
         "torque": _vec("constant joint torques (nv entries)"),
         "pd": _table("joint PD torques τ = kp (q_ref − q) − kd v on actuated joints", {
             "kp": _num("stiffness, ≥ 0", 0.0),
@@ -470,7 +472,10 @@ def load_scene(source: str | Path) -> Scene:
         Anything wrong with the file; the message names the key and its line.
     """
     path = scene_path(source)
-    text = path.read_text()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:  # unreadable, or not text (TOML is UTF-8)
+        raise SceneError(f"{path.name}: cannot be read as a UTF-8 TOML file: {exc}") from exc
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -533,6 +538,8 @@ def load_scene(source: str | Path) -> Scene:
             where = ["contacts", idx]
         elif "record" in str(exc):
             where = ["record", "states"]
+        elif str(exc).startswith("damping"):  # its range is checked by Scene (DAMPING_MAX)
+            where = ["forces", "damping"]
         raise r.fail(where, str(exc)) from exc
     except ImpactError as exc:
         raise r.fail(["scene"], str(exc)) from exc

@@ -52,6 +52,8 @@ class _Run(FreeFlight, Impacts, Persistent):
                     t, q, v = self.contact_phase(t, q, v)
                 else:
                     t, q, v = self.free_phase(t, q, v)
+                if t < scene.duration:  # a phase may end at its first event, before its own check
+                    self.check_wall_time(t)
                 # every pass must move time, log an event or change a contact's mode
                 stalled = stalled + 1 if (t, len(self.events), tuple(self.active)) == before else 0
                 if stalled > 100:

@@ -11,6 +11,8 @@ along n by a(t) = A sin(2π f t + φ).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -18,10 +20,37 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array, as_scalar
-from ..errors import SceneError
+from ..errors import ImpactError, SceneError
 from ..mechanism.contact import unit_vector
 
-__all__ = ["Surface"]
+__all__ = ["Surface", "scene_errors"]
+
+#: Surface kinds.
+KINDS = ("plane", "paraboloid")
+
+#: Smallest |rho| of a paraboloid [m]: a sharper tip is below any contact the simulator resolves, and
+#: its curvature terms (|d_t|²/ρ, d_t/ρ) overflow for ordinary distances.
+RHO_MIN = 1e-6
+
+
+@contextmanager
+def scene_errors(where: str = "") -> Iterator[None]:
+    """Re-raise the shared validation helpers' errors (ParameterError, ShapeError, ...) as SceneError.
+
+    A scene object built in Python then fails with the same class as one read from a file
+    (:func:`mbimpact.load_scene`); the message is kept, prefixed by ``where``.
+
+    Parameters
+    ----------
+    where : str
+        Prefix of the message, e.g. ``"contacts[2] (foot): "``.
+    """
+    try:
+        yield
+    except SceneError:
+        raise
+    except ImpactError as exc:
+        raise SceneError(f"{where}{exc}") from exc
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,9 +65,11 @@ class Surface:
     origin : array_like, shape (3,)
         A point of the surface (the vertex of a paraboloid) at a(t) = 0.
     rho : float
-        Radius of curvature of a paraboloid on its axis, ≠ 0 (< 0: a dome); ∞ for a plane.
+        Radius of curvature of a paraboloid on its axis, |rho| ≥ :data:`RHO_MIN` (< 0: a dome); ∞ for
+        a plane.
     amplitude, frequency, phase : float
-        Harmonic motion a(t) = amplitude · sin(2π frequency t + phase) along n.
+        Harmonic motion a(t) = amplitude · sin(2π frequency t + phase) along n; its peak velocity and
+        acceleration must be finite floats.
     """
 
     kind: Literal["plane", "paraboloid"] = "plane"
@@ -50,20 +81,32 @@ class Surface:
     phase: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.kind not in ("plane", "paraboloid"):
+        with scene_errors():
+            self._validate()
+
+    def _validate(self) -> None:
+        # a str first: `in` on an array compares elementwise, and its truth value is ambiguous
+        if not isinstance(self.kind, str) or self.kind not in KINDS:
             raise SceneError(f"surface kind must be 'plane' or 'paraboloid', got {self.kind!r}")
         object.__setattr__(self, "normal", unit_vector("surface normal", self.normal))
         object.__setattr__(self, "origin", as_array("surface origin", self.origin, 1, (3,)))
         if self.kind == "paraboloid":
             rho = as_scalar("rho", self.rho, -math.inf, math.inf)
-            if rho == 0.0:
-                raise SceneError("rho of a paraboloid must be nonzero (> 0: a cup, < 0: a dome)")
+            if not abs(rho) >= RHO_MIN:
+                raise SceneError(f"rho of a paraboloid must be ≥ {RHO_MIN:g} m in magnitude (> 0: a cup, < 0: a "
+                                 f"dome), got {rho:g}")
             object.__setattr__(self, "rho", rho)
         else:
             object.__setattr__(self, "rho", math.inf)
         object.__setattr__(self, "amplitude", as_scalar("amplitude", self.amplitude, -math.inf, math.inf))
         object.__setattr__(self, "frequency", as_scalar("frequency", self.frequency, 0.0, math.inf))
         object.__setattr__(self, "phase", as_scalar("phase", self.phase, -math.inf, math.inf))
+        w = 2.0 * math.pi * self.frequency
+        if self.moving and not math.isfinite(abs(self.amplitude) * max(w, w * w)):
+            # offset() would overflow (Python floats turn to inf silently, then sin(inf) raises)
+            raise SceneError(f"a surface's motion must have a finite peak velocity and acceleration, amplitude·2π·"
+                             f"frequency and amplitude·(2π·frequency)², below {np.finfo(float).max:.3g}; got "
+                             f"amplitude = {self.amplitude:g}, frequency = {self.frequency:g}")
 
     @property
     def moving(self) -> bool:

@@ -57,3 +57,42 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     scenes = [r for r in rows if r["part"] == "scenes"]
     assert len(scenes) == 4 and all(r["method"] == "mbimpact (completed)" for r in scenes)
     assert all(float(r["error"]) <= 1e-8 and float(r["ratio"]) > 0 for r in scenes)
+    # the speed parts: Pinocchio's conic solvers agree with the integrated Coulomb law where it sticks
+    # (one cone, one answer); sliding, they solve another model (one step, not the slip along the impact)
+    coul = {(r["case"], r["method"]): r for r in rows if r["part"] == "coulomb"}
+    for solver in ("PGS", "ADMM"):
+        assert float(coul["ur5, sticking (mu=3)", f"Pinocchio {solver} (J, W, solve)"]["error"]) < 1e-8
+        assert 0.0 < float(coul["ur5, sliding (mu=0.2)", f"Pinocchio {solver} (J, W, solve)"]["error"]) < 0.05
+    conf = {r["method"]: r for r in rows if r["part"] == "configurations"}
+    assert set(conf) == {"loop of Jacobian + pin.impulseDynamics", "impact_batch, NewtonLaw",
+                         "impact_batch, RoughLaw(Cone)"}
+    assert 0.0 < float(conf["impact_batch, NewtonLaw"]["ratio"]) < float(conf["impact_batch, RoughLaw(Cone)"]["ratio"])
+    assert "## Speed goals" in text and "| import mbimpact |" in text
+
+
+def test_speed_goals_say_by_how_much_they_are_missed():
+    from mbimpact.apps.bench import BenchRow, goals
+
+    rows = [BenchRow("overhead", "ur5", "impact, NewtonLaw", 6, 0.0, 3e-5, 6.0),
+            BenchRow("batch", "ur5 (n=6)", "NewtonLaw", 0, 0.0, 2e-7, 5e6),
+            BenchRow("import", "fresh interpreter", "import mbimpact", 0, 0.0, 0.2)]
+    out = {g.what: g for g in goals(rows)}
+    newton = out["ur5: impact, NewtonLaw per call (× Jacobian + impulseDynamics)"]
+    assert not newton.met and newton.factor == 4.0  # 6× against ≤ 1.5×
+    batch = out["ur5: apply_batch, NewtonLaw, one configuration"]
+    assert not batch.met and batch.factor == 2.0  # 5e6/s against ≥ 1e7/s
+    assert out["import mbimpact"].met and out["import mbimpact"].factor == 1.0
+
+
+def test_the_cli_offers_every_bench_part():
+    """The CLI lists the parts without importing the bench (start-up time): the lists must agree."""
+    import contextlib
+    import io
+
+    from mbimpact.apps.bench import PARTS
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.suppress(SystemExit):
+        main(["bench", "--part", "nope"])
+    choices = err.getvalue().split("choose from")[1]
+    assert all(f"'{p}'" in choices for p in PARTS)

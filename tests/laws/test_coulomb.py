@@ -153,28 +153,16 @@ def admm_impulse(mech, q, v, frame, mu):
     """Pinocchio's conic solver: plastic impact with a Coulomb cone at a point (world-aligned)."""
     import pinocchio as pin
 
+    from mbimpact.apps.bench.speed import conic_problem
+
+    cm, models, datas, settings, result, solver = conic_problem(mech, q, frame, mu, "admm")
     model, data = mech.model, mech.model.createData()
-    fr = model.frames[mech.frame_id(frame)]
-    pin.framesForwardKinematics(model, data, q)
-    R = data.oMi[fr.parentJoint].rotation
-    # the world is the first body, so that the constraint velocity is +J v, axes world-aligned
-    cm = pin.PointContactConstraintModel(model, 0, pin.SE3(np.eye(3), mech.frame_position(q, frame)),
-                                         fr.parentJoint, pin.SE3(R.T, fr.placement.translation))
-    cm.setFriction(mu)
-    models = pin.StdVec_ConstraintModel()
-    models.append(pin.ConstraintModel(cm))
-    datas = pin.StdVec_ConstraintData()
-    datas.append(models[0].createData())
     cdata = cm.createData()
     pin.computeJointJacobians(model, data, q)
     cm.calc(model, data, cdata)
     Jc = cm.jacobian(model, data, cdata)
     W = Jc @ np.linalg.solve(pin.crba(model, data, q), Jc.T)
-    settings = pin.ADMMSolverSettings()
-    settings.absolute_feasibility_tol = settings.absolute_complementarity_tol = 1e-12
-    settings.relative_feasibility_tol = settings.relative_complementarity_tol = 1e-12
-    result = pin.ADMMSolverResult()
-    assert pin.ADMMConstraintSolver(3).solve(pin.DelassusOperatorDense(W), Jc @ v, models, datas, settings, result)
+    assert solver.solve(pin.DelassusOperatorDense(W), Jc @ v, models, datas, settings, result)
     return Jc, result.retrieveConstraintImpulses()
 
 

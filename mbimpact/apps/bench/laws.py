@@ -161,7 +161,8 @@ def overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> li
         t_python = per_call(python_floor, min_time)
         rows.append(BenchRow("overhead", name, "validation + result object only (no physics)", mech.nv, 0.0,
                              t_python, t_python / t_pin))
-        for label, law in (("impact, NewtonLaw", NewtonLaw(E)), ("impact, RoughLaw(Cone)", RoughLaw(Cone(0.3), E))):
+        for label, law in (("impact, NewtonLaw", NewtonLaw(E)), ("impact, RoughLaw(Cone)", RoughLaw(Cone(0.3), E)),
+                           ("impact, RoughLaw(GaussianSlopes(0.3))", RoughLaw(GaussianSlopes(0.3), E))):
             t = per_call(lambda: impact(mech, q, v, contact, law), min_time)
             rows.append(BenchRow("overhead", name, label, mech.nv, 0.0, t, t / t_pin))
         progress.step(name)

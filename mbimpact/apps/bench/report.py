@@ -49,6 +49,19 @@ def format_report(rows: list[BenchRow]) -> str:
                       "| robot | law | nodes | impacts/s | µs/impact |",
                       [f"| {r.case} | {r.method} | {blank0(r.param)} | {r.ratio:.3g} | {r.seconds * 1e6:.2f} |"
                        for r in part("batch")])
+    if part("configurations"):
+        out += _table("## Batches across configurations (impact_batch, one velocity per configuration)",
+                      "| case | call | rows | impacts/s | µs/impact | time / Pinocchio loop |",
+                      [f"| {r.case} | {r.method} | {r.param:g} | {1.0 / r.seconds:.3g} | {r.seconds * 1e6:.2f} | "
+                       f"{r.ratio:.2f} |" for r in part("configurations")])
+    if part("coulomb"):
+        out += _table("## Coulomb impact against Pinocchio's conic solvers (UR5, plastic, same q and v)",
+                      "| case | call | µs | ratio to Jacobian + impulseDynamics | relative difference of P from ours |",
+                      [f"| {r.case} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} | {blank0(r.error)} |"
+                       for r in part("coulomb")])
+    if part("import"):
+        out += _table("## Import", "| case | call | s |",
+                      [f"| {r.case} | {r.method} | {r.seconds:.3f} |" for r in part("import")])
     if part("geometry"):
         out += _table("## Collision geometry: cost of a gap query per contact pair against one rough-law impact",
                       "| mechanism | query | pairs | µs | ratio to one rough impact |",
@@ -64,6 +77,13 @@ def format_report(rows: list[BenchRow]) -> str:
         from .mujoco import format_rows
 
         out += ["", format_rows(rows)]
+    from .speed import goals
+
+    measured = goals(rows)
+    if measured:
+        out += _table("## Speed goals", "| goal | target | measured | met | missed by |",
+                      [f"| {g.what} | {'≤' if g.below else '≥'} {g.target:g} {g.unit} | {g.measured:.3g} {g.unit} | "
+                       f"{'yes' if g.met else 'no'} | {'' if g.met else f'{g.factor:.1f}×'} |" for g in measured])
     return "\n".join(out)
 
 

@@ -1,0 +1,223 @@
+"""Bench of the everyday paths against their speed goals: batches across configurations, the
+Coulomb law against Pinocchio's conic solvers, the package import, and the table of goals.
+
+1. ``configurations`` — :func:`mbimpact.impact_batch` over distinct configurations of the UR5
+   (one velocity each) against a loop of the frame Jacobian plus ``pin.impulseDynamics``.
+2. ``coulomb`` — one plastic Coulomb impact of the UR5, sticking and sliding, by
+   :class:`~mbimpact.CoulombLaw` against Pinocchio's PGS and ADMM solvers on the same q, v (each
+   from q: Jacobian, Delassus matrix, solve), with the impulses' agreement; and the rate of
+   :meth:`CoulombLaw.apply_batch`.
+3. ``import`` — wall time of ``import mbimpact`` in a fresh interpreter, less the interpreter's own
+   start-up.
+
+:func:`goals` reads the rows of a run against the goals, and says by how much each is missed.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from ...laws import CoulombLaw, NewtonLaw, RoughLaw
+from ...mechanism import Mechanism, PointContact, impact, impact_batch
+from ...roughness import Cone
+from ..progress import Progress
+from .common import BenchRow, per_call
+
+__all__ = ["configurations", "coulomb", "import_time", "goals", "Goal", "conic_problem"]
+
+E = 0.5
+
+
+def _pin_loop(mech: Mechanism, fid: int, Q: np.ndarray, V: np.ndarray) -> float:
+    """Seconds per impact of a Python loop of Jacobian + pin.impulseDynamics (Newton, e = E)."""
+    model, data = mech.model, mech.model.createData()
+    start = time.perf_counter()
+    for q, v in zip(Q, V):
+        Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+        pin.impulseDynamics(model, data, q, v, Jf[2:3], E, 0.0)
+    return (time.perf_counter() - start) / len(Q)
+
+
+def configurations(quick: bool, progress: Progress) -> list[BenchRow]:
+    """impact_batch across distinct UR5 configurations, per impact, against the Pinocchio loop."""
+    mech = Mechanism.from_robot("ur5")
+    frame, contact = "tool0", PointContact("tool0")
+    rng = np.random.default_rng(3)
+    size = 2_000 if quick else 10_000
+    Q = np.array([mech.random_configuration(rng) for _ in range(size)])
+    V = rng.normal(size=(size, mech.nv))
+    for i, q in enumerate(Q):  # every row approaches the plane z = const
+        jz = mech.point_jacobian(q, frame)[2]
+        if jz @ V[i] >= 0.0:
+            V[i] -= (1.0 + jz @ V[i]) * jz / max(float(jz @ jz), 1e-12)
+    fid = mech.frame_id(frame)
+    t_pin = min(_pin_loop(mech, fid, Q, V) for _ in range(2))
+    case = f"ur5 (n={mech.nv}), {size} configurations"
+    rows = [BenchRow("configurations", case, "loop of Jacobian + pin.impulseDynamics", size, 0.0, t_pin, 1.0)]
+    for label, law, count in (("impact_batch, NewtonLaw", NewtonLaw(E), size),
+                              ("impact_batch, RoughLaw(Cone)", RoughLaw(Cone(0.3), E), min(size, 500))):
+        passes = []
+        for _ in range(2):
+            start = time.perf_counter()
+            impact_batch(mech, Q[:count], V[:count], contact, law)
+            passes.append((time.perf_counter() - start) / count)
+        rows.append(BenchRow("configurations", case, label, count, 0.0, min(passes), min(passes) / t_pin))
+    progress.step("configurations")
+    return rows
+
+
+def conic_problem(mech: Mechanism, q: np.ndarray, frame: str, mu: float, solver: str = "admm") -> tuple[Any, ...]:
+    """What Pinocchio's conic solvers need for one point contact with a Coulomb cone at q.
+
+    Returns ``(constraint_model, models, datas, settings, result, solver)`` for ``solver`` "pgs"
+    or "admm", with tolerances of 1e-12; the constraint's velocity is +J v in world-aligned axes.
+    """
+    model, data = mech.model, mech.model.createData()
+    fr = model.frames[mech.frame_id(frame)]
+    pin.framesForwardKinematics(model, data, q)
+    R = data.oMi[fr.parentJoint].rotation
+    # the world is the first body, so that the constraint velocity is +J v in world-aligned axes
+    cm = pin.PointContactConstraintModel(model, 0, pin.SE3(np.eye(3), mech.frame_position(q, frame)),
+                                         fr.parentJoint, pin.SE3(R.T, fr.placement.translation))
+    cm.setFriction(mu)
+    models = pin.StdVec_ConstraintModel()
+    models.append(pin.ConstraintModel(cm))
+    datas = pin.StdVec_ConstraintData()
+    datas.append(models[0].createData())
+    if solver == "pgs":
+        settings, result, engine = pin.PGSSolverSettings(), pin.PGSSolverResult(), pin.PGSConstraintSolver(3)
+    else:
+        settings, result, engine = pin.ADMMSolverSettings(), pin.ADMMSolverResult(), pin.ADMMConstraintSolver(3)
+    settings.absolute_feasibility_tol = settings.absolute_complementarity_tol = 1e-12
+    settings.relative_feasibility_tol = settings.relative_complementarity_tol = 1e-12
+    return cm, models, datas, settings, result, engine
+
+
+def coulomb(min_time: float, progress: Progress) -> list[BenchRow]:
+    """One plastic Coulomb impact of the UR5 (sticking, sliding): CoulombLaw against PGS and ADMM."""
+    mech = Mechanism.from_robot("ur5")
+    frame, contact = "tool0", PointContact("tool0")
+    q = mech.neutral() + 0.3
+    model, data = mech.model, mech.model.createData()
+    fid = mech.frame_id(frame)
+    J = mech.point_jacobian(q, frame)
+    rows: list[BenchRow] = []
+    v_n = np.linalg.lstsq(J, [0.0, 0.0, -1.0], rcond=None)[0]
+
+    def baseline() -> None:
+        Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
+        pin.impulseDynamics(model, data, q, v_n, Jf[2:3], E, 0.0)
+
+    t_ref = per_call(baseline, min_time)
+    rows.append(BenchRow("coulomb", "ur5, normal incidence", "Jacobian + pin.impulseDynamics", 0, 0.0, t_ref, 1.0))
+    for case, mu, u in (("sticking (mu=3)", 3.0, [0.2, 0.1, -1.0]), ("sliding (mu=0.2)", 0.2, [1.0, 0.5, -1.0])):
+        v = np.linalg.lstsq(J, u, rcond=None)[0]
+        law = CoulombLaw(0.0, mu)
+        P = impact(mech, q, v, contact, law).P
+        t = per_call(lambda: impact(mech, q, v, contact, law), min_time)
+        rows.append(BenchRow("coulomb", f"ur5, {case}", "impact, CoulombLaw", mu, 0.0, t, t / t_ref))
+        for solver in ("pgs", "admm"):
+            cm, models, datas, settings, result, engine = conic_problem(mech, q, frame, mu, solver)
+            cdata = cm.createData()
+
+            def conic() -> np.ndarray:
+                # the same work as impact(): kinematics, Jacobian, Delassus matrix, solve (from q, v)
+                pin.computeJointJacobians(model, data, q)
+                cm.calc(model, data, cdata)
+                Jc = cm.jacobian(model, data, cdata)
+                W = Jc @ np.linalg.solve(pin.crba(model, data, q), Jc.T)
+                engine.solve(pin.DelassusOperatorDense(W), Jc @ v, models, datas, settings, result)
+                return np.asarray(result.retrieveConstraintImpulses())
+
+            lam = conic()
+            t = per_call(conic, min_time)
+            agree = float(np.linalg.norm(lam - P) / np.linalg.norm(P))
+            rows.append(BenchRow("coulomb", f"ur5, {case}", f"Pinocchio {solver.upper()} (J, W, solve)", mu, agree, t,
+                                 t / t_ref))
+    # the batch: every row integrates its own impact (closed forms, or a turning 3-D slip)
+    rng = np.random.default_rng(5)
+    U = np.column_stack([rng.normal(size=(200, 2)), -rng.uniform(0.2, 1.0, 200)])
+    Vb = np.linalg.lstsq(J, U.T, rcond=None)[0].T
+    A = mech.mass_matrix(q)
+    law = CoulombLaw(E, 0.3)
+    start = time.perf_counter()
+    law.apply_batch(A, J, Vb, [0.0, 0.0, 1.0])
+    t = (time.perf_counter() - start) / len(Vb)
+    rows.append(BenchRow("coulomb", "ur5, 200 random incidences", "CoulombLaw.apply_batch (e=0.5, mu=0.3)", 0.3, 0.0,
+                         t, t / t_ref))
+    progress.step("coulomb")
+    return rows
+
+
+def import_time(progress: Progress) -> list[BenchRow]:
+    """``import mbimpact`` in a fresh interpreter, less the interpreter's start-up (best of 3)."""
+    def best(code: str) -> float:
+        times = []
+        for _ in range(3):
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-c", code], check=True)
+            times.append(time.perf_counter() - start)
+        return min(times)
+
+    t = best("import mbimpact") - best("pass")
+    progress.step("import")
+    return [BenchRow("import", "fresh interpreter", "import mbimpact", 0, 0.0, t, math.nan)]
+
+
+@dataclass(frozen=True)
+class Goal:
+    """One speed goal read off a run: ``measured`` against ``target`` (``below``: lower is better)."""
+
+    what: str
+    target: float
+    measured: float
+    unit: str
+    below: bool = True
+
+    @property
+    def met(self) -> bool:
+        return self.measured <= self.target if self.below else self.measured >= self.target
+
+    @property
+    def factor(self) -> float:
+        """How far the goal is missed, ≥ 1 (1: met)."""
+        f = self.measured / self.target if self.below else self.target / self.measured
+        return max(f, 1.0)
+
+
+def goals(rows: list[BenchRow]) -> list[Goal]:
+    """The speed goals the rows of a run measure (those whose rows ran)."""
+    out: list[Goal] = []
+
+    def find(part: str, case: str | None, method: str) -> list[BenchRow]:
+        return [r for r in rows if r.part == part and (case is None or r.case.startswith(case)) and r.method == method]
+
+    for r in find("overhead", None, "impact, NewtonLaw"):
+        out.append(Goal(f"{r.case}: impact, NewtonLaw per call (× Jacobian + impulseDynamics)", 1.5, r.ratio, "×"))
+    for r in find("overhead", None, "impact, RoughLaw(Cone)"):
+        out.append(Goal(f"{r.case}: impact, RoughLaw(Cone) per call", 3.0, r.ratio, "×"))
+    for r in find("overhead", None, "impact, RoughLaw(GaussianSlopes(0.3))"):
+        out.append(Goal(f"{r.case}: impact, RoughLaw(GaussianSlopes) per call", 20.0, r.ratio, "×"))
+    for r in find("coulomb", None, "impact, CoulombLaw"):
+        out.append(Goal(f"{r.case}: impact, CoulombLaw per call", 20.0, r.ratio, "×"))
+        pgs = find("coulomb", r.case, "Pinocchio PGS (J, W, solve)")
+        if pgs:
+            out.append(Goal(f"{r.case}: CoulombLaw time / Pinocchio PGS time", 1.0, r.seconds / pgs[0].seconds, "×"))
+    for r in find("batch", "ur5", "NewtonLaw"):
+        out.append(Goal("ur5: apply_batch, NewtonLaw, one configuration", 1e7, r.ratio, "impacts/s", below=False))
+    for r in find("batch", "ur5", "RoughLaw(Cone), adaptive"):
+        out.append(Goal("ur5: apply_batch, RoughLaw(Cone), one configuration", 1e6, r.ratio, "impacts/s",
+                        below=False))
+    for r in find("configurations", "ur5", "impact_batch, NewtonLaw"):
+        out.append(Goal(f"{r.case}: impact_batch, NewtonLaw", 1e5, 1.0 / r.seconds, "impacts/s", below=False))
+    for r in find("import", None, "import mbimpact"):
+        out.append(Goal("import mbimpact", 0.3, r.seconds, "s"))
+    return out
