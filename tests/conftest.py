@@ -21,6 +21,15 @@ settings.register_profile(
 settings.load_profile("ci")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels() -> None:
+    """The Coulomb law's compiled kernels, loaded (or compiled, ~10 s on a fresh install) once before
+    any test, so that no test's time limit pays for the JIT."""
+    from mbimpact.laws.coulomb import compile_kernels
+
+    compile_kernels()
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)

@@ -227,8 +227,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--out", type=_out_dir, help="directory for bench.csv and bench.png")
     bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     bench.add_argument("--part", dest="parts", action="append",
-                       choices=["accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "import",
-                                "geometry", "scenes", "mujoco"],  # bench.PARTS (not imported here: start-up)
+                       choices=["accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads",
+                                "import", "geometry", "scenes", "mujoco"],  # bench.PARTS (not imported here: start-up)
                        help="run only this part (repeatable; default all)")
     bench.set_defaults(func=_bench)
     cmp = sub.add_parser("compare", help="Newton vs rough vs Coulomb law over the incidence angle")

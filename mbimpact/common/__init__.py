@@ -13,6 +13,7 @@ from .geometry import (
     ring_quadratic_form,
     scaled_norm,
 )
+from .threads import SINGLE_THREAD_ROWS, single_blas_thread
 from .validation import as_array, as_count, as_scalar, as_vector
 
 __all__ = [
@@ -24,6 +25,8 @@ __all__ = [
     "offset_point_jacobian",
     "ring_quadratic_form",
     "scaled_norm",
+    "SINGLE_THREAD_ROWS",
+    "single_blas_thread",
     "as_array",
     "as_count",
     "as_scalar",

@@ -16,6 +16,7 @@ A and J are frozen (``dynamics="impact"``), the paper's (2.4).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal, cast
@@ -28,11 +29,13 @@ from ..common.geometry import offset_point_jacobian
 from ..common.validation import as_array, as_count, as_scalar
 from ..mechanism.contact import PointContact
 from ..errors import (
+    AccuracyWarning,
     IntegrationError,
     NoFacingFacetError,
     NoImpactError,
     ParameterError,
     ShapeError,
+    warn,
 )
 from ..mechanism.mechanism import Mechanism
 from ..laws.restitution import impact_duration, k_from_e
@@ -371,8 +374,16 @@ def resolve(
     def advance(t1: float, events: list) -> object:
         nonlocal nfev, t0, y
         try:
-            sol = solve_ivp(rhs, (t0, t1), y, method=method, events=events or None, rtol=rtol, atol=atol,
-                            first_step=min(1e-3 / float(Mv.max()), (t1 - t0) / 4) or None)
+            with warnings.catch_warnings(record=True) as caught:
+                # LSODA reports its failures as a UserWarning, outside mbimpact's tree: its message
+                # joins the named IntegrationError below instead
+                warnings.filterwarnings("always", message="lsoda", category=UserWarning)
+                sol = solve_ivp(rhs, (t0, t1), y, method=method, events=events or None, rtol=rtol, atol=atol,
+                                first_step=min(1e-3 / float(Mv.max()), (t1 - t0) / 4) or None)
+            lsoda = [str(w.message) for w in caught if w.category is UserWarning and str(w.message).startswith("lsoda")]
+            for w in caught:  # anything else passes through as it came
+                if str(w.message) not in lsoda:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         except _OutOfEvaluations as stop:
             raise IntegrationError(f"the compliant impact needed more than {max_evaluations} evaluations; stopped at "
                                    f"t = {stop.t:.6g} of {t_end:.6g} (τ = {float(tau_facet.min()):.3g}), penetrations "
@@ -380,7 +391,10 @@ def resolve(
                                    "resolves a stiff impact in far fewer") from None
         nfev = evaluations
         if sol.status == -1:
-            raise IntegrationError(f"integration stopped at t = {sol.t[-1]:.6g} of {t_end:.6g}: {sol.message}")
+            said = "".join(f" ({text})" for text in lsoda)
+            raise IntegrationError(f"integration stopped at t = {sol.t[-1]:.6g} of {t_end:.6g}: {sol.message}{said}")
+        for text in lsoda:  # LSODA complained but went on: its warning, as mbimpact's
+            warn(AccuracyWarning, f"the compliant impact's integration (LSODA) warned: {text}")
         ts.extend(sol.t[1:].tolist())
         fs.extend(state(yy)[1] for yy in sol.y[:, 1:].T)
         t0, y = float(sol.t[-1]), sol.y[:, -1].copy()

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import DEGENERATE
+from ..common.threads import single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
@@ -170,8 +171,13 @@ class ImpactLaw(ABC):
         separates = result.separates if speed is None else float(n0.dot(u_plus)) >= -SEPARATION_RTOL * speed
         if not separates:
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
-                 f"(kappa = {result.kappa:.6g} < 0); further micro-impacts follow: use repeat=True to apply them")
+                 f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
         return result
+
+    def separation_advice(self) -> str:
+        """What a :class:`NoSeparationWarning` of this law tells the user to do about a contact that
+        still approaches after the impact."""
+        return "further micro-impacts follow (a RoughLaw with repeat=True applies them)"
 
     def _single_route(self) -> bool:
         """Whether :meth:`apply_metric` may take :meth:`_single_impulse`: only while :meth:`impulses` is
@@ -293,7 +299,8 @@ class ImpactLaw(ABC):
         if not len(V):
             raise ShapeError("V must have at least one row (one velocity per impact)")
         R = local_basis(frame, metric.d)
-        with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
+        # one BLAS thread: the batch's products are thin ((B, d) by (d, d)), threads only cost
+        with single_blas_thread(len(V)), quiet_overflow():  # overflows are named below
             U = V @ metric.J.T
             out = self.impulses(metric, U, R)  # names a U beyond the float range
             dV = out.P @ metric.AinvJt.T
@@ -307,6 +314,5 @@ class ImpactLaw(ABC):
         approaching = np.flatnonzero(~result.separates)
         if approaching.size:
             warn(NoSeparationWarning, f"{self!r}: {approaching.size} of {len(V)} contacts still approach the surface "
-                 f"after the impact (kappa < 0, e.g. row {approaching[0]}); further micro-impacts follow: "
-                 "use repeat=True to apply them")
+                 f"after the impact (kappa < 0, e.g. row {approaching[0]}); {self.separation_advice()}")
         return result

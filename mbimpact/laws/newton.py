@@ -7,9 +7,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
 from ..metric.basis import local_basis
-from ..metric.delassus import ContactMetric, spread_bound
+from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from .base import ImpactLaw
 from .restitution import restitution_from
@@ -22,7 +23,9 @@ _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and product
 class NewtonLaw(ImpactLaw):
     """Frictionless Newton impact (1.2): Δv = −(1+e)(N, v₋) N / |N|².
 
-    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)``.
+    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)``. The reported
+    contact impulse is P = P_n n⁰ whatever the rank of J: the frictionless impulse is normal, and
+    Δv = P_n A⁻¹Jᵀn⁰ needs no projection (other laws report the minimum-norm P of a rank-deficient J).
 
     Parameters
     ----------
@@ -51,14 +54,14 @@ class NewtonLaw(ImpactLaw):
         with quiet_overflow():  # extreme magnitudes overflow silently here; the general route names them
             jn = n0.dot(J)
             un = float(jn.dot(v))
-            # degenerate cases (no approach, n⁰ out of reach, rank-deficient J) take the general
-            # route, which names the error or reports the minimum-norm impulse, and so do the
-            # magnitudes that overflow; |J|² = tr(J Jᵀ), and the rank test reads the same Gram matrix
+            # degenerate cases (no approach, n⁰ out of reach) take the general route, which names
+            # the error, and so do the magnitudes that overflow; |J|² = tr(J Jᵀ). A (nearly)
+            # rank-deficient J stays here: Newton's impulse is P_n n⁰ whatever the rank, and Δv = P_n y
+            # is exact, where projecting P on range(W) would move Δv by up to √(λ_min/λ_max) |Δv|
             if not -_BIG < un < 0.0:
                 return super().apply_metric(metric, v, R)
-            gram = J.dot(J.T).tolist()
-            jj = sum([gram[i][i] for i in range(len(gram))])
-            if not (float(jn.dot(jn)) > 1e-8 * jj and jj < _BIG) or spread_bound(gram) <= 1e-12:
+            jj = float(np.vdot(J, J))
+            if not (float(jn.dot(jn)) > 1e-8 * jj and jj < _BIG):
                 return super().apply_metric(metric, v, R)
             y = metric.solver(jn)
             wnn = float(jn.dot(y))
@@ -77,19 +80,19 @@ class NewtonLaw(ImpactLaw):
         """:meth:`ImpactLaw.apply_batch` in closed form: Δv = P_n y for every row, with
         y = A⁻¹ Jᵀn⁰ solved once and P_n = −(1 + e) n⁰ᵀJ v / (n⁰ᵀJ y).
 
-        The degenerate cases (a row that does not approach, n⁰ out of reach, a rank-deficient J,
-        magnitudes that overflow) take the general route, which names them or treats them. No row
+        The degenerate cases (a row that does not approach, n⁰ out of reach, magnitudes that
+        overflow) take the general route, which names them or treats them. No row
         can still approach after a Newton impact (n⁰ᵀu₊ = −e n⁰ᵀu₋ ≥ 0): no check is needed for it.
         """
         metric = ContactMetric.from_arrays(A, J)
         V = as_array("V", V, 2, (None, metric.n))
         R = local_basis(frame, metric.d)
         Jm, n0 = metric.J, R[:, -1]
-        with quiet_overflow():  # extreme magnitudes overflow silently here; the general route names them
+        # one BLAS thread for the thin products; the general route names what overflows
+        with single_blas_thread(len(V)), quiet_overflow():
             jn = n0.dot(Jm)
-            gram = Jm.dot(Jm.T).tolist()
-            jj = sum([gram[i][i] for i in range(len(gram))])
-            if not (len(V) and float(jn.dot(jn)) > 1e-8 * jj and jj < _BIG) or spread_bound(gram) <= 1e-12:
+            jj = float(np.vdot(Jm, Jm))
+            if not (len(V) and float(jn.dot(jn)) > 1e-8 * jj and jj < _BIG):
                 return super().apply_batch(A, J, V, frame)
             y = metric.solver(jn)
             wnn = float(jn.dot(y))
@@ -118,8 +121,8 @@ class NewtonLaw(ImpactLaw):
                     R: NDArray[np.float64]) -> BatchResult | None:
         """:meth:`apply_metric` for rows of (A, J, v, R), vectorised: one batched Cholesky and solve.
 
-        Returns None when a row needs the general route (no approach, n⁰ out of reach, a
-        rank-deficient J, A not positive definite, magnitudes that overflow): the caller then
+        Returns None when a row needs the general route (no approach, n⁰ out of reach,
+        A not positive definite, magnitudes that overflow): the caller then
         applies the law row by row, which names the error or treats the row.
         """
         n0 = R[:, :, -1]
@@ -128,12 +131,8 @@ class NewtonLaw(ImpactLaw):
             un = np.einsum("bn,bn->b", jn, V)
             if not (np.all(un < 0.0) and np.all(un > -_BIG)):
                 return None
-            gram = J @ J.transpose(0, 2, 1)
-            jj = np.trace(gram, axis1=1, axis2=2)
+            jj = np.einsum("bdn,bdn->b", J, J)
             if not (np.all(np.einsum("bn,bn->b", jn, jn) > 1e-8 * jj) and np.all(jj < _BIG)):
-                return None
-            # spread_bound of every Gram matrix, det(G / tr G) > 1e-12 (the rank test of apply_metric)
-            if not np.all(np.linalg.det(gram / jj[:, None, None]) > 1e-12):
                 return None
             try:
                 L = np.linalg.cholesky(A)

@@ -7,12 +7,15 @@ the flux weights (2.7) stay, only the impulse of one facet changes.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import warnings
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..averaging import AUTO_ORDER, METHODS, Averaging
+from ..averaging import AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, Fixed, Graded
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
@@ -104,6 +107,49 @@ class RoughLaw(ImpactLaw):
         to such a direction, the limit is the impulse that stops the contact point,
         P = −W⁺ u₋. Default False: one application, and a
         :class:`NoSeparationWarning` when the contact still approaches.
+        The work is bounded (class attributes below): beyond ``exact_budget`` the
+        micro-impacts are averaged coarsely, and they stop at ``repeat_budget``; an
+        :class:`AccuracyWarning` says when that limited a result.
+
+    Attributes
+    ----------
+    max_node_count, max_samples : int
+        Upper bounds of ``nodes``/``max_nodes`` and ``samples``.
+    max_repeats : int
+        ``repeat=True``: at most this many further applications of (2.8).
+    repeat_budget : int
+        ``repeat=True``: at most this many facets averaged for them, counted for the
+        quadratures refined in nodes a piece (fixed, adaptive, graded, cone-pair) by
+        :meth:`Roughness.rule_size` (a :class:`GaussianSlopes` puts up to 60 n² facets on
+        a velocity with a graded rule of n nodes a piece, 2 n² with its plain rule; a
+        :class:`Cone` n). A contact still approaching at either limit is returned as it
+        is, with an :class:`AccuracyWarning`. The default, a few seconds of graded
+        product rules, admits the ~150 coarse micro-impacts of a velocity creeping along a
+        valley of a nearly singular W.
+    exact_budget : int
+        ``repeat=True``: the facets of ``repeat_budget`` averaged to ``rtol`` (one graded
+        pass of 256 nodes a piece, ~3 of 128, ~20 plain ones of 256). Later micro-impacts
+        are coarse: averaged to ``coarse_rtol`` with at most ``coarse_facets`` facets. Where
+        the contact is then found to be stopped (P = −W⁺ u₋) they only decided that, and
+        the result keeps its accuracy; where it separates, their error enters the error
+        estimate (an :class:`AccuracyWarning` if it exceeds ``rtol``). Their errors could
+        lead the velocity astray: once Σ error_k |W P_k| reaches a tenth of the contact's
+        distance to the tangent plane (|u| · −n⁰ᵀu/|u|), they cannot tell whether it
+        separates, and the result falls back to the micro-impacts averaged to ``rtol``,
+        with an :class:`AccuracyWarning`.
+    coarse_facets : int
+        Facets of a coarse micro-impact's rule, at most (32 nodes a piece for a graded
+        :class:`GaussianSlopes` rule, 128 for its plain one; never above ``max_nodes``,
+        never below one refinement of the measure's ``initial_nodes``).
+    coarse_rtol : float
+        Accuracy of the coarse micro-impacts (``rtol`` if larger).
+    settled : float
+        ``repeat=True``: a direction that comes back to within this (1 − cos) after one or
+        two micro-impacts, with a shrinking speed, has settled.
+    contraction : float
+        ``repeat=True``: directions whose changes shrink by a ratio r below this are taken
+        to converge geometrically, and have settled once the rest of their motion,
+        at most step · r / (1 − r), cannot reach a tenth of the way to the tangent plane.
 
     Notes
     -----
@@ -122,10 +168,13 @@ class RoughLaw(ImpactLaw):
     #: Upper bounds that keep a typo from turning into hours of work.
     max_node_count: ClassVar[int] = 1 << 16
     max_samples: ClassVar[int] = 10_000_000
-    #: repeat=True: at most this many applications of (2.8); a direction that comes back to
-    #: within ``settled`` (1 − cos) after one or two impacts, with a shrinking speed, has settled.
     max_repeats: ClassVar[int] = 2000
+    repeat_budget: ClassVar[int] = 15_000_000
+    exact_budget: ClassVar[int] = 3_000_000
+    coarse_facets: ClassVar[int] = 100_000
+    coarse_rtol: ClassVar[float] = 1e-8
     settled: ClassVar[float] = 1e-12
+    contraction: ClassVar[float] = 0.99
 
     def __init__(
         self,
@@ -263,23 +312,32 @@ class RoughLaw(ImpactLaw):
             return out
         return self._repeated(W, U, out, speed)
 
+    def separation_advice(self) -> str:
+        if self.repeat:  # the repetition stopped first: its AccuracyWarning says at which budget
+            return "repeat=True stopped before the contact separated (see the AccuracyWarning)"
+        return "further micro-impacts follow: use repeat=True to apply them"
+
     def average(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         """One application of (2.8) to local-frame velocities U (B, d) — unit ones, or physical ones for
         a speed-dependent facet law — by the law's averaging method (or the first of
         :data:`mbimpact.averaging.AUTO_ORDER` that accepts). Facet laws other than Newton's label
         ``method`` with their name (``"adaptive[coulomb]"``)."""
-        spec = self.spec
+        return self._average_to(self.spec, W, U)[0]
+
+    def _average_to(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]
+                    ) -> tuple[ContactImpulses, Averaging]:
+        """:meth:`average` to the accuracy of ``spec`` (this law's, or :meth:`_coarse_spec`), and the method that ran."""
         general = general_facets(spec)
         if self.method is not None:
             out = self.method.average(spec, W, U)
             if out is None:
                 raise ParameterError(f"{self!r}: {self.method.reason(spec)}")
-            return _labelled(out, self.facet) if general else out
+            return (_labelled(out, self.facet) if general else out), self.method
         for method in self._auto_methods():
             if method.worthwhile(spec, W, U):
                 out = method.average(spec, W, U)
                 if out is not None:
-                    return _labelled(out, self.facet) if general else out
+                    return (_labelled(out, self.facet) if general else out), method
         raise AssertionError(f"no averaging method accepted {self!r}")  # pragma: no cover — adaptive always does
 
     def _auto_methods(self) -> tuple[Averaging, ...]:
@@ -295,6 +353,21 @@ class RoughLaw(ImpactLaw):
         self._auto = (spec, methods)
         return methods
 
+    def _coarse_spec(self, graded: bool) -> AveragingSpec:
+        """The averaging spec of the micro-impacts beyond ``exact_budget`` (see the class attributes):
+        ``coarse_rtol`` and the most nodes a piece (doublings of the measure's ``initial_nodes``, at
+        least one) whose rule (``graded`` or not) has at most ``coarse_facets`` facets; this law's
+        own spec for a fixed node count, or when that relaxes nothing."""
+        spec = self.spec
+        if spec.nodes is not None:
+            return spec
+        rough = spec.roughness
+        limit = 2 * max(1, rough.initial_nodes)
+        while limit < spec.max_nodes and rough.rule_size(2 * limit, graded) <= self.coarse_facets:
+            limit *= 2
+        coarse = dataclasses.replace(spec, rtol=max(spec.rtol, self.coarse_rtol), max_nodes=min(spec.max_nodes, limit))
+        return spec if (coarse.rtol, coarse.max_nodes) == (spec.rtol, spec.max_nodes) else coarse
+
     def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], first: ContactImpulses,
                   physical: NDArray[np.float64] | None = None) -> ContactImpulses:
         """Apply (2.8) again to the rows whose contact still approaches, until it separates.
@@ -304,19 +377,42 @@ class RoughLaw(ImpactLaw):
         direction or a two-cycle (bouncing between the walls of a valley) along which
         u_{k+p} = ρ u_k with ρ < 1: the velocities then shrink geometrically to u = 0, and
         the limit of the impulses is the one that stops the contact point, P = −W⁺ u₋.
-        (For a speed-dependent facet law, ``physical`` holds the rows' physical speeds.)"""
+        (For a speed-dependent facet law, ``physical`` holds the rows' physical speeds.)
+
+        The work is bounded as the class attributes say: once the micro-impacts averaged to rtol
+        have cost ``exact_budget``, the rest are coarse (:meth:`_coarse_spec`); a row whose coarse
+        path may have drifted by a tenth of its distance to the tangent plane falls back to its
+        last micro-impact averaged to rtol; all stop at ``repeat_budget`` or ``max_repeats``."""
         total, err, nodes = first.P.copy(), first.error.copy(), first.nodes
+        coarse: AveragingSpec | None = None  # made once a pass has shown whether the rule is graded
+        rough = self.spec.roughness
         B, d = U.shape
         u = U + total @ W  # W is symmetric
         dirs = np.full((2, B, d), np.nan)  # the last two directions of each row, oldest first
         speeds = np.ones((2, B))
         steps = np.full((2, B), np.nan)  # the last two changes of direction |d_k − d_{k−1}|
+        # the state after the last micro-impact averaged to rtol, and how far the coarse ones since
+        # may have led u astray: Σ |W δP_k| ≤ Σ error_k |W P_k|
+        kept_total, kept_u, kept_err, kept_count = total.copy(), u.copy(), err.copy(), np.zeros(B, dtype=int)
+        astray = np.zeros(B)
+        coarsened = np.zeros(B, dtype=bool)  # rows followed by coarse micro-impacts
+        lost = np.zeros(B, dtype=bool)  # rows the coarse micro-impacts could not follow
+        work = 0  # facets averaged (passes of rules refined in nodes a piece)
+        graded = False  # whether they were graded
+        count = 0  # passes made
         todo = np.flatnonzero(u[:, -1] < -SEPARATION_RTOL)  # U is unit
-        for _ in range(self.max_repeats):
-            if not todo.size:
-                break
+        while todo.size and count < self.max_repeats and work < self.repeat_budget:
             speed = np.linalg.norm(u[todo], axis=1)
             direction = u[todo] / speed[:, None]
+            # a coarse path that may have moved u by a tenth of its way to the tangent plane cannot tell
+            # whether the contact separates: back to the last micro-impact averaged to rtol
+            adrift = coarsened[todo] & ~(astray[todo] <= 0.1 * speed * -direction[:, -1])
+            if adrift.any():
+                rows = todo[adrift]
+                total[rows], u[rows], err[rows], lost[rows] = kept_total[rows], kept_u[rows], kept_err[rows], True
+                todo, speed, direction = todo[~adrift], speed[~adrift], direction[~adrift]
+                if not todo.size:
+                    break
             stuck = np.zeros(len(todo), dtype=bool)
             for period in (1, 2):
                 rho = speed / speeds[2 - period, todo]
@@ -329,31 +425,66 @@ class RoughLaw(ImpactLaw):
                 r = np.maximum(step / steps[1, todo], steps[1, todo] / steps[0, todo])
                 drift = step * r / (1.0 - r)
             shrinking = (speed < speeds[1, todo]) & (speeds[1, todo] < speeds[0, todo])
-            stuck |= (r < 0.9) & shrinking & (drift < 0.1 * -direction[:, -1])
+            stuck |= (r < self.contraction) & shrinking & (drift < 0.1 * -direction[:, -1])
             steps[0, todo], steps[1, todo] = steps[1, todo], step
             if stuck.any():
                 rows = todo[stuck]
                 total[rows] = -np.linalg.lstsq(W, U[rows].T, rcond=1e-12)[0].T  # u₋ + W P = 0
                 u[rows] = 0.0
+                err[rows], coarsened[rows] = kept_err[rows], False  # coarse micro-impacts only told it stops
                 todo, speed, direction = todo[~stuck], speed[~stuck], direction[~stuck]
                 if not todo.size:
                     break
-            if physical is None:
-                more = self.average(W, direction)
-                Pk = more.P * speed[:, None]
-            else:
-                more = self.average(W, direction * (speed * physical[todo])[:, None])
-                Pk = more.P / physical[todo][:, None]
+            if work >= self.exact_budget and coarse is None:
+                coarse = self._coarse_spec(graded)
+            spec = self.spec if coarse is None else coarse
+            # a coarse rule stopped short is expected: its error is kept below (entering catch_warnings resets
+            # the once-per-call-site registries, so only coarse passes do)
+            with warnings.catch_warnings() if spec is not self.spec else contextlib.nullcontext():
+                if spec is not self.spec:
+                    warnings.simplefilter("ignore", AccuracyWarning)
+                if physical is None:
+                    more, method = self._average_to(spec, W, direction)
+                    Pk = more.P * speed[:, None]
+                else:
+                    more, method = self._average_to(spec, W, direction * (speed * physical[todo])[:, None])
+                    Pk = more.P / physical[todo][:, None]
+            count += 1
+            if isinstance(method, _REFINED):  # the other methods cost little, or what the user asked for
+                graded = isinstance(method, Graded)
+                work += rough.rule_size(more.nodes, graded)
             nodes = max(nodes, more.nodes)
             err[todo] = np.maximum(err[todo], more.error)
             total[todo] += Pk
-            u[todo] += Pk @ W
+            dU = Pk @ W
+            u[todo] += dU
+            if spec is self.spec:
+                kept_total[todo], kept_u[todo], kept_err[todo], kept_count[todo] = total[todo], u[todo], err[todo], count
+            else:
+                coarsened[todo] = True
+                astray[todo] += more.error * np.linalg.norm(dU, axis=1)
             dirs[0, todo], dirs[1, todo] = dirs[1, todo], direction
             speeds[0, todo], speeds[1, todo] = speeds[1, todo], speed
             todo = todo[u[todo, -1] < -SEPARATION_RTOL]
         if todo.size:
-            warn(AccuracyWarning, f"{self!r}: the contact still approaches after {self.max_repeats} repeated impacts "
-                                  f"(n0·u = {u[todo[0], -1]:.3g} for a unit approach)")
+            warn(AccuracyWarning, f"{self!r}: the contact still approaches after {_impacts(count)} "
+                                  f"(n0·u = {u[todo[0], -1]:.3g} for a unit approach), at the limit of "
+                                  f"RoughLaw.max_repeats = {self.max_repeats} or RoughLaw.repeat_budget = "
+                                  f"{self.repeat_budget:g} facets")
+        if lost.any():
+            assert coarse is not None
+            i = int(np.flatnonzero(lost)[0])
+            warn(AccuracyWarning, f"{self!r}: the contact still approaches after {_impacts(int(kept_count[i]))} "
+                                  f"(n0·u = {u[i, -1]:.3g} for a unit approach): later ones, averaged to "
+                                  f"rtol={coarse.rtol:g} with at most {coarse.max_nodes} nodes to bound the work "
+                                  "(RoughLaw.exact_budget), are too inaccurate on this W to tell whether it separates")
+        loose = np.flatnonzero(coarsened & ~lost & (err > self.spec.rtol))
+        if loose.size:
+            assert coarse is not None
+            warn(AccuracyWarning, f"{self!r}: the contact separated after repeated impacts of which the later ones "
+                                  f"were averaged to rtol={coarse.rtol:g} with at most {coarse.max_nodes} nodes to "
+                                  f"bound the work (RoughLaw.exact_budget): estimated relative error "
+                                  f"{err[loose].max():.3g} > rtol={self.spec.rtol:g}")
         return ContactImpulses(total, err, nodes, first.method)
 
 
@@ -395,6 +526,11 @@ def _facet_law(e: object, k: float | None, facet: object) -> FacetLaw:
     return facet
 
 
+def _impacts(count: int) -> str:
+    """"1 repeated impact", "3 repeated impacts"."""
+    return f"{count} repeated impact" + ("" if count == 1 else "s")
+
+
 def _any_facet(method: Averaging) -> bool:
     """Whether an averaging method evaluates any facet law (the quadrature methods), not only Newton's."""
     return bool(getattr(method, "any_facet", False))
@@ -405,6 +541,9 @@ def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
     (:func:`mbimpact.facets.method_label`)."""
     return ContactImpulses(out.P, out.error, out.nodes, method_label(out.method, facet))
 
+
+# the methods whose ``nodes`` count a quadrature rule's nodes a piece (Roughness.rule_size gives its facets)
+_REFINED = (Fixed, Adaptive, Graded, ConePair)
 
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}

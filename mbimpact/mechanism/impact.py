@@ -11,6 +11,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.threads import single_blas_thread
 from ..common.validation import as_array
 from ..errors import ParameterError, ShapeError
 from ..metric.delassus import ContactMetric
@@ -93,7 +94,8 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
     V = as_array("V", V, 2, (Q.shape[0], mech.nv))
     if not len(Q):
         raise ShapeError("Q and V must have at least one row")
-    stacked = _stacked(mech, Q, V, contact, law) if len(Q) > 1 else None
+    with single_blas_thread(len(Q)):  # batched LAPACK on small matrices: threads only cost
+        stacked = _stacked(mech, Q, V, contact, law) if len(Q) > 1 else None
     if stacked is not None:
         return stacked
     results = [impact(mech, q, v, contact, law) for q, v in zip(Q, V)]

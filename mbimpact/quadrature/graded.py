@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.geometry import facing_half_width, ring_quadratic_form
+from ..common.geometry import EPS, facing_half_width, ring_quadratic_form
 from .rules import gauss_legendre
 
 __all__ = [
@@ -29,6 +29,10 @@ __all__ = [
 # Grid of the vectorised ring-minimum search: two minima closer than its spacing (a ring
 # nearly touching a valley of q) would be taken for one.
 _GRID_N = 256
+# Newton on q' = 0 stops once its step is within this many ε of the rounding of q'/q'', the
+# accuracy a minimum can be found to in floats (a fixed 1e-15 was below it for a nearly
+# singular W, where q'' ≪ |q'|'s terms: the steps then dithered at ~5e-15 for every iteration).
+_NEWTON_ROUNDING = 16.0
 # (1, cos φ, sin φ, cos 2φ, sin 2φ) on the 64-point grid that brackets the minima of q.
 _GRID_HARMONICS = np.cos(np.multiply.outer(2 * np.pi * np.arange(64) / 64, [0.0, 1.0, 1.0, 2.0, 2.0])
                          - np.array([0.0, 0.0, np.pi / 2, 0.0, np.pi / 2]))
@@ -54,6 +58,7 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
     widths: list[float] = []
     # a trigonometric polynomial of degree 2 has at most two local minima: Newton on q' = 0
     # from each grid minimum, in floats (this runs once per impact when W is ill-conditioned)
+    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
     for i in np.flatnonzero((q <= np.roll(q, 1)) & (q < np.roll(q, -1))).tolist():
         phi = float(grid[i])
         for _ in range(50):
@@ -62,7 +67,7 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
             d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
             step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
             phi -= step
-            if abs(step) < 1e-15:
+            if abs(step) <= max(1e-15, noise / d2q if d2q > 0 else 0.0):
                 break
         c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
         qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
@@ -120,12 +125,16 @@ def ring_minima_many(alpha: NDArray[np.float64], W: NDArray[np.float64]) -> tupl
         return (q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2, -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2,
                 -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2, a1 * c1 + b1 * s1 + 16 * a2 * c2 + 16 * b2 * s2)
 
+    noise = _NEWTON_ROUNDING * EPS * (np.abs(a1) + np.abs(b1) + 2 * np.abs(a2) + 2 * np.abs(b2))  # rounding of q'
     for _ in range(60):  # Newton on q' = 0, steps clamped: quadratic convergence in a few steps
         _, dq, d2q, _ = derivatives(phi)
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = np.where(d2q > 0, np.clip(dq / d2q, -0.05, 0.05), 0.0)
+            # a ring with one minimum fills its second slot with a grid point that is none: left
+            # alone (its result is dropped), not walked to a minimum in clamped steps for ~20 rounds
+            step = np.where(found & (d2q > 0), np.clip(dq / d2q, -0.05, 0.05), 0.0)
+            tol = np.where(d2q > 0, np.maximum(noise / d2q, 1e-15), 1e-15)
         phi = phi - step
-        if not np.abs(step).max(initial=0.0) > 1e-15:
+        if not (np.abs(step) > tol).any():  # every step at the rounding level of q'/q'': converged
             break
     qmin, _, d2q, d4q = derivatives(phi)
     qmin = np.maximum(qmin, 0.0)

@@ -56,7 +56,7 @@ class ImpactResult:
     P : ndarray, shape (d,)
         Contact impulse in world-aligned contact coordinates; I = Jᵀ P. When J is
         rank-deficient, P is defined up to the null space of Jᵀ and the
-        minimum-norm impulse is reported.
+        minimum-norm impulse is reported (Newton's law: its normal impulse P_n n⁰).
     u_minus, u_plus : ndarray, shape (d,)
         Contact-point velocity J v before and after.
     n0 : ndarray, shape (d,)

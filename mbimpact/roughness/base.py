@@ -106,6 +106,24 @@ class Roughness(ABC):
         """
         return None
 
+    def rule_size(self, nodes: int, graded: bool = False) -> int:
+        """Facets a rule with ``nodes`` nodes a piece puts on one velocity, at most: the work of one
+        average, with which :class:`mbimpact.RoughLaw` bounds repeated micro-impacts.
+
+        Parameters
+        ----------
+        nodes : int
+            Nodes a piece (the ``nodes`` of :meth:`rule_batch`).
+        graded : bool
+            For the rule of :meth:`graded_rule` instead (more pieces).
+
+        Returns
+        -------
+        int
+            Default ``nodes``: a rule along one curve (finite measures ignore ``nodes``).
+        """
+        return nodes
+
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         """``count`` facet normals drawn from P (local frame), shape (count, d).
 

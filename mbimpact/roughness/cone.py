@@ -61,6 +61,10 @@ class Cone(Roughness):
             return None
         return functools.partial(graded_azimuth_rule, self.alpha, minima)
 
+    def rule_size(self, nodes: int, graded: bool = False) -> int:
+        # the graded ring is cut at its (at most two) minima of q, every piece halved: 6 pieces
+        return 6 * nodes if graded else nodes
+
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         phi = rng.uniform(0.0, 2.0 * math.pi, count)
         s, c = math.sin(self.alpha), math.cos(self.alpha)

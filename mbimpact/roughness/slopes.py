@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from ..common.geometry import incidence_split
 from ..common.validation import as_scalar
-from ..errors import ParameterError, RoughnessError
+from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
 from ..quadrature.graded import graded_azimuth_rule, graded_tilt_rule, peak_tilts, ring_minima_many
 from ..quadrature.rules import azimuth_rule, gauss_legendre, tilt_segments
 from .base import Roughness, Rule
@@ -96,8 +96,16 @@ class IsotropicSlopes(Roughness):
         from scipy import integrate  # deferred: scipy.integrate costs 0.1 s to import
 
         lo, hi = self.support
-        return float(integrate.quad(lambda a: float(f(np.array([a]))[0] * self.pdf(np.array([a]))[0]), lo, hi,
-                                    limit=200, epsabs=0, epsrel=rtol)[0])
+        # full_output: quad reports a failure to converge in its return value instead of warning
+        # (scipy's IntegrationWarning is outside mbimpact's tree): it is re-issued as ours
+        out = integrate.quad(lambda a: float(f(np.array([a]))[0] * self.pdf(np.array([a]))[0]), lo, hi,
+                             limit=200, epsabs=0, epsrel=rtol, full_output=1)
+        value, abserr = float(out[0]), float(out[1])
+        if len(out) > 3:
+            warn(AccuracyWarning, f"the tilt density's integral over its support {self.support} did not converge "
+                 f"to rtol={rtol:g} (estimated error {abserr:.3g} of {value:.6g}): the pdf may be singular or "
+                 f"discontinuous inside the support; scipy says: {str(out[3]).splitlines()[0]}")
+        return value
 
     def density(self, alpha: NDArray[np.float64]) -> NDArray[np.float64]:
         """The normalised tilt density p(α) (∫ p dα = 1 over the support)."""
@@ -123,6 +131,14 @@ class IsotropicSlopes(Roughness):
         weights = np.concatenate([np.broadcast_to(w_all, (B, nodes)), w_cut], axis=1)
         normals = np.stack([sgn * np.sin(tilt), np.cos(tilt)], axis=-1)
         return normals, weights
+
+    def rule_size(self, nodes: int, graded: bool = False) -> int:
+        """Plain rules: 2 n tilts × n azimuths (spatial), 2 sides × n tilts (planar). Graded ones: tilts
+        in up to 10 half-pieces (α* and three peak tilts cut the support) × azimuths in up to 6 (two
+        minima cut each ring), or 2 sides × 6 half-pieces of tilt (planar)."""
+        if self.dim == 3:
+            return (60 if graded else 2) * nodes * nodes
+        return (12 if graded else 2) * nodes
 
     def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
         if self.dim == 2:

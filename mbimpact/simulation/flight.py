@@ -134,7 +134,7 @@ class FreeFlight(RunBase):
             values.append(self.kin.rates(q_t, v_t, float(t)))
         gaps = np.array([g for g, _ in values])
         rates = np.array([r for _, r in values])
-        tol = self.scene.tolerance
+        tol = self.band  # above it, a contact is off its surface (armed again); 1e-3 of it: rounding
         first: tuple[float, str, list[int]] | None = None
         xtol = 4 * np.finfo(float).eps * max(1.0, abs(tb))
 
@@ -169,8 +169,10 @@ class FreeFlight(RunBase):
                 continue
             armed = self.armed[i]
             event: tuple[float, str] | None = None
-            if not armed and gaps[0, i] < 0 and rates[0, i] < 0:
-                event = (ta, "crossing")  # already coming back below its surface
+            if not armed and gaps[0, i] < -1e-3 * tol and rates[0, i] < 0:
+                # already coming back below its surface (not merely 0 ± rounding, where a contact that lifted
+                # off by itself starts: the steps below find it if it does come back)
+                event = (ta, "crossing")
             for k in range(1, len(ts)):
                 if event is not None:
                     break

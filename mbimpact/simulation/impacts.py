@@ -53,7 +53,7 @@ class Impacts(RunBase):
             self.event(ContactEvent(t, i, "rest", 0.0, rule="touch"))
             return v
         gaps, rates = self.kin.rates(q, v, t)
-        tol = self.scene.tolerance
+        tol = self.band
         group = sorted(set(which) | {j for j in range(self.nc) if not self.active[j] and gaps[j] <= tol and rates[j] < 0})
         if not any(rates[j] < 0.0 for j in group):  # on the surface but not approaching: nothing strikes
             for j in group:

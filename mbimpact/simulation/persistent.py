@@ -14,6 +14,8 @@ there by its law, at the instant the edge lands.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -22,6 +24,9 @@ from .scene import SceneContact
 from .trajectory import ContactEvent
 
 __all__ = ["Persistent"]
+
+# b ↦ K⁻¹ b for a step's mass matrix K
+Solve = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
 class Persistent(RunBase):
@@ -34,7 +39,10 @@ class Persistent(RunBase):
         instant = 0  # events in a row at the same instant
         while t < scene.duration and any(self.active):
             h = min(scene.contact_step, scene.duration - t)
-            w = self.step_velocity(t, q, v, h)  # the step's velocity, expressed at q: the path is q ⊕ s w
+            free = self.free_velocity(t, q, v, h)
+            if self.separating(t, q, v, free[0], h, gaps0):
+                break  # every persistent contact lifted off: free flight from here
+            w = self.step_velocity(t, q, v, h, free)  # the step's velocity, expressed at q: the path is q ⊕ s w
             q1 = self.step_configuration(q, h * w)
             v1 = self.transport(q, q1, w)
             gaps1, rates1 = self.kin.rates(q1, v1, t + h)
@@ -49,12 +57,12 @@ class Persistent(RunBase):
                     q_s, t_s = self.step_configuration(q, s * w), t + s
                     v_s = self.transport(q, q_s, self.step_velocity(t, q, v, s))
                 gaps, rates = self.kin.rates(q_s, v_s, t_s)
-                if any(self.active[i] and gaps[i] < -0.1 * scene.tolerance for i in range(self.nc)):
+                if any(self.active[i] and gaps[i] < -0.1 * self.band for i in range(self.nc)):
                     # the persistent points drift O(s²) below their surfaces inside a step: back on them
                     q_s = self.project(t_s, q_s, gaps)
                     gaps, rates = self.kin.rates(q_s, v_s, t_s)
                 group = sorted(set(group) | {j for j in range(self.nc) if not self.active[j]
-                                             and gaps[j] <= scene.tolerance and rates[j] < 0})
+                                             and gaps[j] <= self.band and rates[j] < 0})
                 logged = len(self.events)
                 v_after = self.impact(t_s, q_s, v_s, group)
                 if len(self.events) > logged or v_after is not v_s:
@@ -72,7 +80,7 @@ class Persistent(RunBase):
                 # it joins the persistent contact through the step's gap term and the projection
                 self.pushing, self.forces = pushing, forces
             instant = 0
-            if any(self.active[i] and gaps1[i] < -0.1 * scene.tolerance for i in range(self.nc)):
+            if any(self.active[i] and gaps1[i] < -0.1 * self.band for i in range(self.nc)):
                 q1 = self.project(t + h, q1, gaps1)
                 gaps1, rates1 = self.kin.rates(q1, v1, t + h)
             t, q, v, gaps0 = t + h, q1, v1, gaps1
@@ -84,31 +92,39 @@ class Persistent(RunBase):
             self.check_limits(t)
         return t, q, v
 
-    def step_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float
-                      ) -> NDArray[np.float64]:
-        """One step of Moreau's scheme: v⁺ = v + h a_free + A⁻¹ Jcᵀ λ with λ on the cones (v⁺ expressed
-        at q; the step then moves q along q ⊕ s v⁺), and the contact forces of the step."""
-        active = [i for i in range(self.nc) if self.active[i]]
+    def free_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float
+                      ) -> tuple[NDArray[np.float64], Solve]:
+        """The velocity v + h a_free after a step of length h without contact forces (expressed at q), and
+        the solve b ↦ K⁻¹ b of the step's mass matrix K (A, or A + h D with damping), for its impulses."""
         A, factor = self.mech.factorise(q)
         if self.damper.any():
             # the velocity-proportional torques implicitly, (A + h D) v⁺ = A (v + h a₀) + Jᵀλ with a₀ the
             # acceleration without them: explicitly v⁺ would grow by |1 − h·rate| a step, unstable once
             # h·rate > 2 (rate = damping_rate, up to 1e9 1/s for the damping allowed on light bodies)
             K = A + h * np.diag(self.damper)
-            a0 = self.acceleration(t, q, v, damped=False)
+            a0 = self.step_acceleration(t, q, v, damped=False)
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught as non-finite below
                 v_free = np.asarray(np.linalg.solve(K, A @ (v + h * a0)), float)
 
             def solve(b: NDArray[np.float64]) -> NDArray[np.float64]:
                 return np.asarray(np.linalg.solve(K, b), float)
         else:
-            a = self.acceleration(t, q, v)
+            a = self.step_acceleration(t, q, v)
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught as non-finite below
                 v_free = v + h * a
             solve = factor.solve
         if not np.isfinite(v_free).all():
             raise Stop("integration_error", f"persistent contact stopped at t = {t:.9g}: the dynamics overflowed "
                                             f"(|v| = {float(np.abs(v).max()):.3g})")
+        return v_free, solve
+
+    def step_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float,
+                      free: tuple[NDArray[np.float64], Solve] | None = None) -> NDArray[np.float64]:
+        """One step of Moreau's scheme: v⁺ = v + h a_free + A⁻¹ Jcᵀ λ with λ on the cones (v⁺ expressed
+        at q; the step then moves q along q ⊕ s v⁺), and the contact forces of the step. ``free``:
+        :meth:`free_velocity` of this step, when already computed."""
+        active = [i for i in range(self.nc) if self.active[i]]
+        v_free, solve = self.free_velocity(t, q, v, h) if free is None else free
         states = self.kin.states(q, v_free, t, active)
         Jc = np.vstack([s.frame.T @ s.J for s in states])
         AinvJt = solve(Jc.T)
@@ -139,6 +155,63 @@ class Persistent(RunBase):
             self.forces[s.index] += s.frame @ lam[3 * k: 3 * k + 3] / h
         return v_free + AinvJt @ lam
 
+    def separating(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], v_free: NDArray[np.float64],
+                   h: float, gaps: NDArray[np.float64]) -> bool:
+        """Whether every persistent contact leaves its surface by itself over the next step (``gaps`` at
+        (q, t)); if so they all lift off now, at t, and the run goes on in free flight.
+
+        Zero contact forces then solve the contact problem (for frictionless contacts, the only
+        solution). Moreau's step cannot see it: its velocity-level constraint, with the Jacobian at the
+        step's start, misses the point's centripetal acceleration J̇v — after a plastic impact a
+        pendulum's tip leaving the surface on its arc was pushed off it by a spurious impulse, and the
+        explicit steps until its lift-off fed it O(h²) energy each (issue #14).
+
+        A contact separates when its free acceleration opens the gap, beyond rounding (1e-3 band, as in
+        the flight's event location), over a step: f(h) + f(−h) − 2 f(0) > 1e-3 band with f(s) the gap
+        along the free motion q ⊕ (s v + s² a / 2), a = (v_free − v) / h — a central difference, blind
+        to the O(h) error of the normal velocity that a persistent contact carries — and is still leaving
+        at the step's end. Not when it is below the rounding: the step's gap term puts it back on its
+        surface first.
+        """
+        rounding = 1e-3 * self.band
+        active = [i for i in range(self.nc) if self.active[i]]
+        if any(gaps[i] < -rounding for i in active):
+            return False
+        dv = 0.5 * h * (v_free - v)  # h² a / 2
+        with np.errstate(over="ignore", invalid="ignore"):  # a huge trial state is simply not separating
+            ahead, behind = self.step_configuration(q, h * v + dv), self.step_configuration(q, -h * v + dv)
+        if not (np.isfinite(ahead).all() and np.isfinite(behind).all()):
+            return False
+        gaps_ahead, rates_ahead = self.kin.rates(ahead, self.transport(q, ahead, v_free), t + h)
+        if not all(rates_ahead[i] > 0.0 for i in active):
+            return False
+        gaps_behind = self.kin.gaps(behind, t - h)
+        if not all(gaps_ahead[i] + gaps_behind[i] - 2.0 * gaps[i] > rounding for i in active):
+            return False
+        _, rates = self.kin.rates(q, v, t)
+        for i in active:
+            self.active[i], self.armed[i], self.pushing[i] = False, False, False
+            self.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i]), rule="free motion"))
+        return True
+
+    def step_acceleration(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], damped: bool = True
+                          ) -> NDArray[np.float64]:
+        """The rate of change of v over a step: :meth:`acceleration`, except that a free flyer's linear
+        part is the classical acceleration of its origin, Rᵀ p̈ = a + ω × v (body axes).
+
+        The step moves the origin along a straight line and keeps its world velocity
+        (:meth:`step_configuration`, :meth:`transport`), so v changes by Rᵀ p̈ only. Pinocchio's
+        spatial acceleration a is the rate of the body-axis components, which also turn with the body:
+        added on top of the transport, it turned the world velocity by −ω h a step and lengthened it
+        by O(h²) — a torque-free spinning body on a frictionless plane gained 0.2 % of its energy in
+        0.25 s (issue #14).
+        """
+        a = self.acceleration(t, q, v, damped)
+        if self.free_flyer:
+            with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught as non-finite by the caller
+                a[:3] += np.cross(v[3:6], v[:3])
+        return a
+
     def project(self, t: float, q: NDArray[np.float64], gaps: NDArray[np.float64]) -> NDArray[np.float64]:
         """Back onto the surfaces: the step moves a persistent contact off its surface by O(h²) (a
         rotating body's points move along straight lines for a step). When that puts a contact below
@@ -147,7 +220,7 @@ class Persistent(RunBase):
         active = [i for i in range(self.nc) if self.active[i]]
         for _ in range(3):
             # the next step's gap term closes small drifts; a drift below the surface is projected now
-            if not any(gaps[i] < -0.1 * self.scene.tolerance for i in active):
+            if not any(gaps[i] < -0.1 * self.band for i in active):
                 return q
             rows = [s for s in self.kin.states(q, np.zeros(self.nv), t, active)
                     if self.pushing[s.index] or s.gap < 0.0]
@@ -170,7 +243,7 @@ class Persistent(RunBase):
         the crossing, and the contact."""
         from scipy.optimize import brentq
 
-        tol = self.scene.tolerance
+        tol = self.band
         xtol = 4 * np.finfo(float).eps * max(1.0, h)
         first: tuple[float, list[int]] | None = None
         for i in range(self.nc):
@@ -199,7 +272,7 @@ class Persistent(RunBase):
     def lift_offs(self, t: float, gaps: NDArray[np.float64], rates: NDArray[np.float64]) -> None:
         """A persistent contact whose gap opened (the cone gave it no push) becomes open."""
         for i in range(self.nc):
-            if self.active[i] and not self.pushing[i] and gaps[i] > self.scene.tolerance and rates[i] > 0.0:
+            if self.active[i] and not self.pushing[i] and gaps[i] > self.band and rates[i] > 0.0:
                 self.active[i], self.armed[i] = False, False
                 self.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i])))
             elif self.active[i] and gaps[i] < -self.scene.tolerance:

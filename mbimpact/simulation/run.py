@@ -29,10 +29,18 @@ from .kinematics import ContactKinematics
 from .scene import Scene, SceneContact
 from .trajectory import ContactEvent
 
-__all__ = ["RunBase", "Stop", "scene_law"]
+__all__ = ["BAND_MAX", "RunBase", "Stop", "scene_law"]
 
 # a window of simulated time over which the event rate is measured [s]
 RATE_WINDOW = 0.01
+
+#: The largest height [m] above its surface at which a contact still touches it (the default ``tolerance``);
+#: a run's band is min(tolerance, BAND_MAX). The scene's tolerance bounds penetration, the guarantee of a
+#: completed run; the band says where a contact is: on its surface (resting, striking with others,
+#: projected back below −band/10) or off it (armed again, lifted off). Taken as the tolerance itself, a
+#: large one (1e308 is valid) held a contact 7 cm above its surface in persistent contact — it would strike
+#: at a distance at t = 0, and never lifted off, its flight integrated by first-order contact steps (#14).
+BAND_MAX = 1e-8
 
 
 def scene_law(law: ImpactLaw) -> ImpactLaw:
@@ -69,6 +77,7 @@ class RunBase:
             self.model.gravity.linear[:] = 0.0
         self.data = self.model.createData()
         self.kin = ContactKinematics(scene, self.model, self.data)
+        self.band = min(scene.tolerance, BAND_MAX)  # where a contact touches its surface (see BAND_MAX)
         self.nc, self.nv, self.nq = len(scene.contacts), mech.nv, mech.nq
         self.euclidean = self.model.nq == self.model.nv
         self.laws = [scene_law(c.law) for c in scene.contacts]

@@ -297,7 +297,9 @@ class Scene:
     rtol : float
         Relative tolerance of the free-flight integration (DOP853).
     tolerance : float
-        Penetration tolerated [m]: gaps are never reported below −tolerance.
+        Penetration tolerated [m]: gaps are never reported below −tolerance. Above its surface a
+        contact touches it up to min(tolerance, 1e-8 m) (:data:`~mbimpact.simulation.run.BAND_MAX`):
+        a large tolerance loosens the guarantee, not where contacts rest, strike and lift off.
     patch_tolerance : float
         Witness points of a collision pair within this distance [m] of its nearest point strike
         or rest together (a face landing flat strikes at its corners at once).

@@ -70,7 +70,7 @@ class _Run(FreeFlight, Impacts, Persistent):
     def classify_start(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
         """Contacts starting on their surface: resting, leaving, or striking at t = 0."""
         gaps, rates = self.kin.rates(q, v, t)
-        tol, rest = self.scene.tolerance, self.scene.rest_velocity
+        tol, rest = self.band, self.scene.rest_velocity  # touching: within the band (a start below it is valid)
         striking = [i for i in range(self.nc) if gaps[i] <= tol and rates[i] < -rest]
         for i in range(self.nc):
             if gaps[i] <= tol and -rest <= rates[i] <= rest:

@@ -63,11 +63,19 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     for solver in ("PGS", "ADMM"):
         assert float(coul["ur5, sticking (mu=3)", f"Pinocchio {solver} (J, W, solve)"]["error"]) < 1e-8
         assert 0.0 < float(coul["ur5, sliding (mu=0.2)", f"Pinocchio {solver} (J, W, solve)"]["error"]) < 0.05
+    jit = [float(r["seconds"]) for r in rows if r["part"] == "coulomb" and r["case"].startswith("JIT")]
+    assert len(jit) == 1 and 0.0 < jit[0] < 60.0  # --quick: the warm first call only (numba's import dominates)
     conf = {r["method"]: r for r in rows if r["part"] == "configurations"}
     assert set(conf) == {"loop of Jacobian + pin.impulseDynamics", "impact_batch, NewtonLaw",
                          "impact_batch, RoughLaw(Cone)"}
     assert 0.0 < float(conf["impact_batch, NewtonLaw"]["ratio"]) < float(conf["impact_batch, RoughLaw(Cone)"]["ratio"])
+    # batches in fresh interpreters under both BLAS settings (the thread limit itself: tests/common/test_threads.py)
+    thr = {(r["case"], r["method"]): float(r["ratio"]) for r in rows if r["part"] == "threads"}
+    assert set(thr) == {(f"ur5, BLAS threads{s}", f"apply_batch, {law}") for s in (" = 1", ": default")
+                        for law in ("NewtonLaw", "RoughLaw(Cone)")}
+    assert all(rate > 0 for rate in thr.values())
     assert "## Speed goals" in text and "| import mbimpact |" in text
+    assert "| ur5, BLAS threads: default: apply_batch, RoughLaw(Cone), one configuration |" in text
 
 
 def test_speed_goals_say_by_how_much_they_are_missed():

@@ -45,7 +45,7 @@ def configuration(mech: mbi.Mechanism, rng: np.random.Generator, noisy: bool) ->
         q = mech.neutral() + rng.normal(scale=0.3, size=mech.nq)
         q = np.clip(q, lo, hi)
     else:
-        np.random.seed(int(rng.integers(2**31)))  # pin.randomConfiguration draws from numpy's global generator
+        pin.seed(int(rng.integers(2**31)))  # pin.randomConfiguration draws from Pinocchio's own generator
         q = pin.randomConfiguration(model, lo, hi)
     return pin.normalize(model, q)
 

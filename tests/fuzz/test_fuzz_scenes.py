@@ -14,8 +14,8 @@ Asserted: a bad scene raises an :class:`mbimpact.ImpactError` (a :class:`mbimpac
 a file) and nothing else; a valid one simulates within :data:`LIMIT` and returns a trajectory with
 a status of :data:`mbimpact.simulation.trajectory.STATUSES` (a message when it did not complete); a
 completed run never reports a gap below −tolerance, samples up to its duration, and a passive scene
-(fixed surfaces, no torques, no law that may create energy) never gains energy beyond integration
-error. The default run takes a small derandomised sample; ``pytest -m slow`` runs 10⁴ examples.
+(fixed surfaces, no torques, no law that may create energy) never gains energy beyond its flight's
+integration error (:func:`energy_slack`). The default run takes a small derandomised sample; ``pytest -m slow`` runs 10⁴ examples.
 """
 
 from __future__ import annotations
@@ -121,9 +121,27 @@ def simulate_checked(scene: mbi.Scene) -> mbi.Trajectory:
         assert tr.t[-1] == pytest.approx(scene.duration, rel=1e-9)
         assert tr.gaps.size == 0 or tr.gaps.min() >= -scene.tolerance, (tr.gaps.min(), scene.tolerance)
         if passive(scene):
-            scale = abs(tr.energy[0]) + float(np.abs(tr.energy).max()) + 1.0
-            assert tr.energy.max() <= tr.energy[0] + 1e-6 * scale, (tr.energy.max() - tr.energy[0])
+            gain = float(tr.energy.max() - tr.energy[0])
+            assert gain <= energy_slack(scene, tr), (gain, energy_slack(scene, tr), dict(tr.work))
     return tr
+
+
+def energy_slack(scene: mbi.Scene, tr: mbi.Trajectory) -> float:
+    """The energy a passive run may gain [J]: its flight's integration error, and nothing else.
+
+    The flight's integrator (DOP853, Radau when stiff) keeps each accepted step's local error within
+    atol + rtol |y| (rtol the scene's, at least 100 ε; atol = 1e-3 rtol), which moves E = ½ vᵀ A(q) v + V(q)
+    by about 2 rtol E: over the run's ``free_steps`` steps, 2 rtol (steps + 1) in the scale
+    |E₀| + max |E| + 1 J (the step for rounding). Impacts by passive laws and persistent contact (Moreau's
+    step: plastic normal impulses, O(h²) dissipative) add nothing. Measured over 463 passive runs of
+    :func:`scene_settings`: the largest gain is 0.8 % of this slack (2e-11 of the scale); none with
+    contact steps gained more than rounding (8e-14). The bugs of #14 gained 1e-6 to 2e-4 of the scale,
+    650 to 9e5 times their slack (a plastic impact's contact that separated by itself kept in contact, a
+    spinning free flyer's contact step, a tolerance of 1e308 as the contact band).
+    """
+    scale = abs(tr.energy[0]) + float(np.abs(tr.energy).max()) + 1.0
+    rtol = max(scene.rtol, 100 * np.finfo(float).eps)
+    return 2.0 * rtol * (tr.work["free_steps"] + 1) * scale
 
 
 @settings(max_examples=25, deadline=None)

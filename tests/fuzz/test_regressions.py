@@ -401,6 +401,79 @@ def test_facets_with_a_nearly_singular_w_create_no_energy():
         assert res.energy_loss >= -energy_bound(res, 1.0 / np.finfo(float).eps)[0]
 
 
+def test_repeated_micro_impacts_creeping_along_a_valley_of_a_nearly_singular_w_end_quickly():
+    """The slow fuzzer's hang: GaussianSlopes, e = 0, repeat=True on a nearly singular W (cond 2.5e5).
+    The contact velocity creeps along a valley of W: its direction converges with ratio 0.965 and
+    its speed shrinks by 0.25 % a micro-impact, so it takes ~130 of them to see that the contact
+    is being stopped, each a graded product rule of 10⁶ facets at rtol 1e-12 whose ring-minimum
+    Newton loop never met its tolerance: 42 s. Now the later micro-impacts are averaged coarsely,
+    the settling test trusts ratios up to RoughLaw.contraction, and Newton stops at rounding."""
+    A = np.array([[58873.24149993, 14790.25834943, -46815.48378961],
+                  [14790.25834943, 3717.067312, -11747.80626595],
+                  [-46815.48378961, -11747.80626595, 37726.91895409]])
+    J = np.array([[-1.37637947, -1.94278712, 0.45016285], [2.12427099, -1.1783915, -0.57817299],
+                  [-0.10954783, -0.47909368, -0.64262745]])
+    v = np.array([1.36746849, -0.38518355, 1.85215657]) * 247317.86
+    n0 = np.array([0.06646551, 0.18833341, 0.97985349])
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.5), e=0.0, flux="physical", repeat=True)
+    with time_limit(LIMIT / 2), warnings.catch_warnings():  # the old code took 42 s
+        warnings.simplefilter("error", mbi.NoSeparationWarning)
+        res = law.apply(A, J, v, n0)
+    # the micro-impacts never throw the contact off (checked by 6000 single impacts by hand): the
+    # limit stops the contact point, P = −W⁻¹ u₋, with all of the contact's kinetic energy lost
+    W = J @ np.linalg.solve(A, J.T)
+    np.testing.assert_allclose(res.P, -np.linalg.solve(W, res.u_minus), rtol=1e-9)
+    assert np.linalg.norm(res.u_plus) <= 1e-9 * np.linalg.norm(res.u_minus)
+    assert res.separates and res.method == "graded" and res.error_estimate <= 1e-10
+    assert res.energy_loss == pytest.approx(res.T_minus, rel=1e-9)  # J is invertible: v₊ = 0 up to rounding
+
+
+def test_repeated_micro_impacts_that_cannot_be_followed_on_a_rank_deficient_w_say_so_quickly():
+    """Found by the slow fuzzer next to the hang above: two DoF in a spatial contact (W of rank 2,
+    its other eigenvalues 1.3e-6 and 0.51). Each micro-impact needs a graded rule capped at 256 nodes
+    (~1 s, error ~1e-7), and barely changes the velocity along the soft direction; coarse ones are
+    off by 100 % and only chase a cycle of their own (1742 of them, then a verdict): > 10 min
+    before, now the micro-impacts that could be followed and a named warning."""
+    A = np.array([[86694.242336, 33963.499137], [33963.499137, 13306.757664]])
+    J = np.array([[-1.64139729e+00, -5.20326417e-03], [-6.23463741e-01, 1.48631523e-01],
+                  [-3.86353603e-01, -1.22474910e-03]])
+    v, n0 = np.array([1.57562603, 0.31664502]), np.array([0.18562457, -0.5428674, 0.81904731])
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.5), e=0.0, flux="physical", repeat=True)
+    with time_limit(LIMIT / 2), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = law.apply(A, J, v, n0)
+    messages = [str(w.message) for w in caught if issubclass(w.category, mbi.AccuracyWarning)]
+    assert any("too inaccurate on this W to tell whether it separates" in m for m in messages), messages
+    assert np.all(np.isfinite(res.v_plus)) and np.all(np.isfinite(res.P))
+    assert not res.separates  # returned as it is: the contact still approaches, and the warning says so
+    assert res.energy_loss >= -energy_bound(res, 1.0 / np.finfo(float).eps)[0]
+    assert res.error_estimate < 1e-6  # the micro-impacts kept are the accurate ones
+
+
+def test_coarse_micro_impacts_keep_an_honest_error_estimate():
+    """Repeated micro-impacts beyond RoughLaw.exact_budget are averaged coarsely (to bound the work of
+    the two hangs above). With none averaged to rtol, a contact that separates after four of them
+    still agrees with the default law within its own error estimate, and a warning says so."""
+
+    class Coarse(mbi.RoughLaw):
+        exact_budget = 0
+
+    W = np.array([[27.668948599172257, 3.9930895702733813, -0.33673979942575255],
+                  [3.9930895702733813, 2.349690676875268, 1.5900442558036039],
+                  [-0.33673979942575255, 1.5900442558036039, 4.583759499994726]])
+    U = np.array([[-0.22870897921960195, -0.1555094301485924, -0.9609937668680206]])
+    rough, e = mbi.GaussianSlopes(0.6714243431787987), 0.07335963396180079
+    with time_limit(LIMIT), warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.AccuracyWarning)  # 256 nodes reach 1e-10, not 1e-12
+        ref = mbi.RoughLaw(rough, e, repeat=True).contact_impulses(W, U)
+    assert (U + ref.P @ W)[0, -1] > 0.0 and ref.error[0] < 1e-9  # separates; every impact averaged to rtol
+    with time_limit(LIMIT), pytest.warns(mbi.AccuracyWarning, match="averaged to rtol=1e-08 with at most 128 nodes"):
+        out = Coarse(rough, e, repeat=True).contact_impulses(W, U)
+    true = np.linalg.norm((out.P - ref.P) @ W) / np.linalg.norm(ref.P @ W)
+    assert (U + out.P @ W)[0, -1] > 0.0
+    assert true <= out.error[0] < 1e-4
+
+
 # ---------------------------------------------------------------- inputs that must be named errors
 
 def _complex(x: object) -> np.ndarray:

@@ -13,6 +13,7 @@ import time
 import warnings
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import mbimpact as mbi
@@ -240,3 +241,120 @@ def test_the_smallest_rtol_and_a_huge_velocity_leak_no_warning():
         assert tr.status == "completed", tr.message
         tr = mbi.simulate(point_mass_scene(v0=[1e300, 0.0, -1e300]), samples=4)
     assert tr.status == "integration_error" and tr.message, (tr.status, tr.message)
+
+
+# ---------------------------------------------------------------- 9. passive scenes that gained energy (nightly)
+
+def energy_gain(tr: mbi.Trajectory) -> float:
+    """The largest energy gain over the start, in the scale of the fuzzer's check (|E₀| + max |E| + 1)."""
+    return float(tr.energy.max() - tr.energy[0]) / (abs(tr.energy[0]) + float(np.abs(tr.energy).max()) + 1.0)
+
+
+def simulate_completed(scene: mbi.Scene) -> mbi.Trajectory:
+    with time_limit(LIMIT):
+        tr = mbi.simulate(scene)  # the fuzzer's 2000 samples
+    assert tr.status == "completed", tr.message
+    return tr
+
+
+def test_9_a_contact_that_leaves_by_itself_after_a_plastic_impact_lifts_off_at_once():
+    """The nightly bad-scene fuzzer's example (torque None): no gravity, the tip of the double pendulum
+    strikes a tilted plane plastically at t = 0 and leaves it on its arc. It came to rest, and Moreau's
+    first step pushed it off (its Jacobian at the step's start misses J̇v): two explicit steps before the
+    lift-off gained 1.76e-6 J, 1.03e-6 of the scale (the fuzzer allowed 1e-6 then; its flight's error,
+    :func:`tests.fuzz.test_fuzz_scenes.energy_slack`, is 2.7e-9 J); lifted off at t = 0, 7e-12."""
+    mech = mbi.Mechanism.from_model("double_pendulum")
+    plane = Surface("plane", [0.479425538604203, 0.0, 0.8775825618903728], [-0.03579773147547127, 0.0, -1.999286891731173])
+    scene = mbi.Scene(mech, [0.03771906632801799, -0.039631458987390566], [0.6404226504432821, 0.10490011715303971],
+                      (mbi.SceneContact("tip", mbi.NewtonLaw(0.0), plane),), gravity=False, duration=0.25, samples=16,
+                      max_wall_time=10.0)
+    tr = simulate_completed(scene)
+    assert [(e.kind, e.t) for e in tr.events] == [("impact", 0.0), ("rest", 0.0), ("lift", 0.0)]
+    assert tr.events[-1].rule == "free motion" and tr.work["contact_steps"] == 0
+    assert energy_gain(tr) < 1e-10, energy_gain(tr)
+
+
+def test_9_a_contact_that_leaves_slowly_lifts_off_at_once_too():
+    """The nightly random-scene fuzzer's example (to 8 digits), found with the energy bound
+    :func:`tests.fuzz.test_fuzz_scenes.energy_slack`: the same tip leaves the plane at 0.009 m/s², so that
+    its free motion opens the gap by 5e-9 m in a step, less than the band (1e-8 m). It rested, was pushed
+    off, and lifted off after two steps: 7.6e-9 J gained, 1.6 times the slack; lifted off at t = 0, 1e-16
+    of the scale."""
+    mech = mbi.Mechanism.from_model("double_pendulum")
+    plane = Surface("plane", [0.479425538604203, 0.0, 0.8775825618903728], [1.1002846591565478, 0.0, -1.6363935086859387])
+    scene = mbi.Scene(mech, [-0.42413833, -0.33562385], [0.17081375, 0.40648615],
+                      (mbi.SceneContact("tip", mbi.NewtonLaw(0.0), plane),), gravity=False, duration=0.25, samples=16,
+                      max_wall_time=10.0)
+    tr = simulate_completed(scene)
+    assert [(e.kind, e.t) for e in tr.events[:3]] == [("impact", 0.0), ("rest", 0.0), ("lift", 0.0)]
+    assert energy_gain(tr) < 1e-10, energy_gain(tr)
+
+
+def test_9_a_spinning_sphere_after_a_plastic_impact_lifts_off_at_once():
+    """The nightly random-scene fuzzer's example: the floating sphere's body point "bottom" strikes a plane
+    plastically while the sphere spins, and leaves it (no gravity). It stayed in persistent contact for
+    the whole run and gained 2.2e-4 J, 1.9e-4 of the scale; lifted off at t = 0, 2e-13."""
+    mech = mbi.Mechanism.from_model("sphere")
+    q0 = [0.03771906632801799, -0.039631458987390566, 0.1921267951329846, 0.02239862887126437, -0.11437794172940895,
+          0.07720900277724158, 0.9901791543759014]
+    v0 = [0.2841242889387726, -0.21112057074209778, -0.37962644131381573, -0.18698233876120565, 0.01239779380417308,
+          -0.6975092323916503]
+    plane = Surface("plane", [0.0, 0.0, 1.0], [0.04887159411023343, -0.03653049276583364, 0.14348519634594148])
+    scene = mbi.Scene(mech, q0, v0, (mbi.SceneContact("bottom", mbi.NewtonLaw(0.0), plane),), gravity=False,
+                      duration=0.25, samples=16, max_wall_time=10.0)
+    tr = simulate_completed(scene)
+    assert [(e.kind, e.t) for e in tr.events] == [("impact", 0.0), ("rest", 0.0), ("lift", 0.0)]
+    assert energy_gain(tr) < 1e-10, energy_gain(tr)
+
+
+@pytest.mark.parametrize("gravity", [False, True])
+def test_9_a_top_spinning_on_its_tip_slides_straight(gravity):
+    """Found on the way: the sphere on its body point "bottom" (a top on its tip), sliding at 1 m/s on a
+    frictionless plane while it spins at 10 rad/s about the vertical, in persistent contact. The step
+    moved the origin along a straight line and kept its world velocity, but added Pinocchio's spatial
+    acceleration (the rate of the body-axis components, −ω × v): the world velocity turned by −ω h a
+    step and grew by O(h²) — after 0.1 s the sphere was at (0.084, −0.047) instead of (0.1, 0) and had
+    gained 5e-3 J of 0.55 J."""
+    mech = mbi.Mechanism.from_model("sphere")
+    q0 = mech.neutral()
+    plane = Surface(origin=mech.frame_position(q0, "bottom"))
+    scene = mbi.Scene(mech, q0, [1.0, 0.0, 0.0, 0.0, 0.0, 10.0], (mbi.SceneContact("bottom", mbi.NewtonLaw(0.0), plane),),
+                      gravity=gravity, duration=0.1, max_wall_time=10.0)
+    with time_limit(LIMIT):
+        tr = mbi.simulate(scene, samples=5)
+    assert tr.status == "completed", tr.message
+    assert all(tr.active[:, 0]) and tr.work["contact_steps"] == 100  # resting on its tip throughout
+    np.testing.assert_allclose(tr.q[:, :3], np.outer(tr.t, [1.0, 0.0, 0.0]), rtol=0, atol=1e-12)
+    world = np.array([pin.Quaternion(q[3:7]).matrix() @ v[:3] for q, v in zip(tr.q, tr.v)])  # v is in body axes
+    np.testing.assert_allclose(world, np.tile([1.0, 0.0, 0.0], (len(tr.t), 1)), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tr.v[:, 3:], np.tile([0.0, 0.0, 10.0], (len(tr.t), 1)), rtol=0, atol=1e-12)
+    assert np.ptp(tr.energy) < 1e-9, np.ptp(tr.energy)
+
+
+def test_9_a_huge_tolerance_bounds_penetration_only():
+    """The nightly bad-scene fuzzer's first example (tolerance 1e308, valid): the double pendulum's tip
+    starts on a tilted plane, gravity on. The tolerance was also the band above the surface within which
+    a contact touches it: the tip rested at t = 0 and never lifted off (gap > 1e308), its flight
+    integrated by first-order contact steps for the whole run — 4.7e-3 J gained in 0.1 s, 1.9e-4 of the
+    scale. The band is now min(tolerance, BAND_MAX)."""
+    mech = mbi.Mechanism.from_model("double_pendulum")
+    plane = Surface("plane", [0.3331065186944532, 0.18197692054597692, 0.9251618494035868],
+                    [-0.5459389426774706, 0.0, -1.9133053603107668], frequency=30.0)
+    scene = mbi.Scene(mech, [0.17627146557755227, 0.20336075464012493], [0.9626572972538084, 3.791969386388186],
+                      (mbi.SceneContact("tip", mbi.NewtonLaw(2.225073858507203e-309), plane),), duration=0.1,
+                      tolerance=1e308, samples=16, max_wall_time=10.0)
+    tr = simulate_completed(scene)
+    assert [e.kind for e in tr.events] == ["rest", "lift"] and tr.work["contact_steps"] == 0
+    assert energy_gain(tr) < 1e-10, energy_gain(tr)
+
+
+def test_9_a_huge_tolerance_strikes_no_contact_at_a_distance():
+    """With the tolerance as the band, a point mass starting 0.2 m above the plane and falling at 2 m/s
+    struck it at t = 0, 0.2 m away; it strikes when it gets there, at √(v₀² + 2 g h) = 2.81 m/s."""
+    with time_limit(LIMIT):
+        tr = mbi.simulate(point_mass_scene(q0=[0.0, 0.0, 0.2], v0=[0.0, 0.0, -2.0], tolerance=1e308), samples=8)
+    assert tr.status == "completed", tr.message
+    first = tr.events[0]
+    assert first.kind == "impact"
+    assert first.t == pytest.approx((math.sqrt(4.0 + 2 * G * 0.2) - 2.0) / G, rel=1e-9)
+    assert first.un_minus == pytest.approx(-math.sqrt(4.0 + 2 * G * 0.2), rel=1e-9)

@@ -16,12 +16,19 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import mbimpact as mbi
+from mbimpact.laws.coulomb import compile_kernels
 from mbimpact.metric.delassus import spread_bound
 
 from tests.helpers import approaching, seeds, spd
 from tests.laws.test_coulomb_regressions import energy_bound, time_limit
 
 RESTITUTIONS = ["newton", "poisson", "energetic"]
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _compiled_phases() -> None:
+    """Load (or, with a cold numba cache, compile: seconds) the law's kernels outside the time limits."""
+    compile_kernels()
 
 
 # ---------------------------------------------------------------------- the reference

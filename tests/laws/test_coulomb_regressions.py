@@ -19,6 +19,12 @@ RESTITUTIONS = ["newton", "poisson", "energetic"]
 EPS = np.finfo(float).eps
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _compiled_phases() -> None:
+    """Load (or, with a cold numba cache, compile: seconds) the law's kernels outside the time limits."""
+    coulomb.compile_kernels()
+
+
 def guarded(law: mbi.CoulombLaw, *args: object, seconds: float = 10.0) -> mbi.ImpactResult:
     with time_limit(seconds):
         return law.apply(*args)  # type: ignore[arg-type]

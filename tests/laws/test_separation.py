@@ -29,6 +29,16 @@ def test_steep_facets_at_normal_incidence_do_not_separate_and_say_so():
         assert mbi.RoughLaw(mbi.Cone(0.3), e).apply(I3, I3, [0.0, 0.0, -1.0], N0).separates
 
 
+def test_the_warning_advises_what_the_law_can_do():
+    """Only a rough law has ``repeat``: it is advised where it was off; where the repetition ran out of
+    budget the warning says so instead; other laws point to the rough law."""
+    law = mbi.RoughLaw(mbi.Cone(1.2), 0.1)
+    assert law.separation_advice().endswith("use repeat=True to apply them")
+    assert "stopped before the contact separated" in mbi.RoughLaw(mbi.Cone(1.2), 0.1, repeat=True).separation_advice()
+    for other in (mbi.CoulombLaw(0.5, 0.3), mbi.NewtonLaw(0.5)):
+        assert "a RoughLaw with repeat=True" in other.separation_advice()
+
+
 def test_an_oblique_impact_on_an_anisotropic_delassus_matrix_can_still_approach():
     W = np.diag([1.0, 0.05, 2.0])
     law = mbi.RoughLaw(mbi.Cone(0.4), 0.0)

@@ -186,6 +186,30 @@ def test_ring_minima_many_matches_the_scalar_search(rng):
                 assert e[np.isfinite(p)][j] <= w * (1 + 1e-9)  # capped by the quartic width, never wider
 
 
+def test_ring_minima_stop_at_rounding_on_a_nearly_singular_w():
+    """Newton on q' = 0 stops once its step is at the rounding of q'/q'' (issue #14: a fixed 1e-15 lay
+    below it on a nearly singular W, so all 60 rounds ran on every call, and a ring with one minimum
+    walked its unused second slot in clamped steps): the minima are still stationary to rounding,
+    with q'' > 0, and agree with the scalar search."""
+    W = np.array([[0.40738481, 0.43425876, 0.22864059], [0.43425876, 0.46427383, 0.24358853],
+                  [0.22864059, 0.24358853, 0.12834136]])  # the local W of the hang, eigenvalues 5e-6 … 1
+    alpha = np.linspace(0.001, 1.45, 400)
+    phi, eps = ring_minima_many(alpha, W)
+    q0, a1, b1, a2, b2 = (x[:, None] for x in ring_quadratic_form(np.sin(alpha), np.cos(alpha), W))
+    dq = -a1 * np.sin(phi) + b1 * np.cos(phi) - 2 * a2 * np.sin(2 * phi) + 2 * b2 * np.cos(2 * phi)
+    d2q = -a1 * np.cos(phi) - b1 * np.sin(phi) - 4 * a2 * np.cos(2 * phi) - 4 * b2 * np.sin(2 * phi)
+    found = np.isfinite(phi)
+    assert found[:, 0].all() and not found[:, 1].all()  # rings with one minimum and with two
+    scale = np.abs(a1) + np.abs(b1) + 2 * np.abs(a2) + 2 * np.abs(b2)
+    assert np.all(np.abs(dq[found]) <= 64 * np.finfo(float).eps * np.broadcast_to(scale, dq.shape)[found])
+    assert np.all(d2q[found] > 0) and np.all(eps[found] > 0)
+    for a, p in zip(alpha[::37], phi[::37]):
+        ref, _ = ring_minima(a, W)
+        got = p[np.isfinite(p)]
+        assert len(got) == len(ref)
+        assert np.abs(np.angle(np.exp(1j * (np.sort(got) - np.sort(ref))))).max() < 1e-9
+
+
 @pytest.mark.parametrize("width", [1e-1, 1e-4, 1e-8])
 @pytest.mark.parametrize("centre", [0.05, 0.3, 0.6, 1.2])
 def test_graded_tilt_rule_resolves_a_narrow_peak(width, centre):

@@ -5,9 +5,9 @@ The parts (``run_bench(parts=...)``), each a module:
 * ``accuracy``, ``compliant``, ``overhead``, ``batch`` — the impact laws
   (:mod:`~mbimpact.apps.bench.laws`): error against time per averaging method, cost per call
   against Pinocchio's own impact, batch throughput, the compliant route;
-* ``configurations``, ``coulomb``, ``import`` — the everyday paths against their speed goals
+* ``configurations``, ``coulomb``, ``threads``, ``import`` — the everyday paths against their speed goals
   (:mod:`~mbimpact.apps.bench.speed`): batches across configurations, the Coulomb law against
-  Pinocchio's PGS and ADMM, the package import; the report ends with the goals and by how
+  Pinocchio's PGS and ADMM, batches under both BLAS thread settings, the package import; the report ends with the goals and by how
   much each is missed;
 * ``geometry`` — gap queries per contact pair against one rough-law impact
   (:mod:`~mbimpact.apps.bench.geometry`);
@@ -30,14 +30,14 @@ from .geometry import gap_queries
 from .laws import BATCH_ROBOTS, OVERHEAD_ROBOTS, accuracy, batch, compliant, overhead
 from .report import format_report, plot, write_csv
 from .scenes import QUICK_SCENES, scene_throughput
-from .speed import configurations, coulomb, goals, import_time
+from .speed import configurations, coulomb, goals, import_time, threads
 
 __all__ = ["BenchRow", "PARTS", "run_bench", "format_report", "write_csv", "plot", "machine_summary",
            "moving_frame", "per_call", "goals"]
 
 #: The parts of the bench, in the order they run.
-PARTS = ("accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "import", "geometry", "scenes",
-         "mujoco")
+PARTS = ("accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads", "import", "geometry",
+         "scenes", "mujoco")
 
 
 def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str, ...] = PARTS) -> list[BenchRow]:
@@ -57,7 +57,7 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
     batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
     scenes = QUICK_SCENES if quick else None
     steps = {"accuracy": acc_steps, "compliant": 1, "overhead": len(robots), "batch": len(batch_robots),
-             "configurations": 1, "coulomb": 1, "import": 1, "geometry": 3, "scenes": len(scenes) if scenes else 13, "mujoco": 3}
+             "configurations": 1, "coulomb": 1, "threads": 1, "import": 1, "geometry": 3, "scenes": len(scenes) if scenes else 13, "mujoco": 3}
     progress = Progress(sum(steps[p] for p in parts), "bench", enabled=show_progress)
     rows: list[BenchRow] = []
     for part in parts:
@@ -77,7 +77,9 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
         elif part == "configurations":
             rows += configurations(quick, progress)
         elif part == "coulomb":
-            rows += coulomb(min_time, progress)
+            rows += coulomb(min_time, progress, quick)
+        elif part == "threads":
+            rows += threads(quick, progress)
         elif part == "import":
             rows += import_time(progress)
         elif part == "geometry":

@@ -6,8 +6,10 @@ Coulomb law against Pinocchio's conic solvers, the package import, and the table
 2. ``coulomb`` — one plastic Coulomb impact of the UR5, sticking and sliding, by
    :class:`~mbimpact.CoulombLaw` against Pinocchio's PGS and ADMM solvers on the same q, v (each
    from q: Jacobian, Delassus matrix, solve), with the impulses' agreement; and the rate of
-   :meth:`CoulombLaw.apply_batch`.
-3. ``import`` — wall time of ``import mbimpact`` in a fresh interpreter, less the interpreter's own
+   :meth:`CoulombLaw.apply_batch`, and what the first call of a process pays for its compiled kernels.
+3. ``threads`` — batches at one UR5 configuration in fresh interpreters with BLAS on one thread and
+   on its default threads (:func:`threads`).
+4. ``import`` — wall time of ``import mbimpact`` in a fresh interpreter, less the interpreter's own
    start-up.
 
 :func:`goals` reads the rows of a run against the goals, and says by how much each is missed.
@@ -15,9 +17,12 @@ Coulomb law against Pinocchio's conic solvers, the package import, and the table
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -31,7 +36,7 @@ from ...roughness import Cone
 from ..progress import Progress
 from .common import BenchRow, per_call
 
-__all__ = ["configurations", "coulomb", "import_time", "goals", "Goal", "conic_problem"]
+__all__ = ["configurations", "coulomb", "threads", "batch_rates", "import_time", "goals", "Goal", "conic_problem"]
 
 E = 0.5
 
@@ -101,7 +106,7 @@ def conic_problem(mech: Mechanism, q: np.ndarray, frame: str, mu: float, solver:
     return cm, models, datas, settings, result, engine
 
 
-def coulomb(min_time: float, progress: Progress) -> list[BenchRow]:
+def coulomb(min_time: float, progress: Progress, quick: bool = True) -> list[BenchRow]:
     """One plastic Coulomb impact of the UR5 (sticking, sliding): CoulombLaw against PGS and ADMM."""
     mech = Mechanism.from_robot("ur5")
     frame, contact = "tool0", PointContact("tool0")
@@ -153,7 +158,67 @@ def coulomb(min_time: float, progress: Progress) -> list[BenchRow]:
     t = (time.perf_counter() - start) / len(Vb)
     rows.append(BenchRow("coulomb", "ur5, 200 random incidences", "CoulombLaw.apply_batch (e=0.5, mu=0.3)", 0.3, 0.0,
                          t, t / t_ref))
+    rows += _first_call(quick)
     progress.step("coulomb")
+    return rows
+
+
+def _first_call(quick: bool) -> list[BenchRow]:
+    """What the first Coulomb impact of a process pays for the compiled kernels (numba's import, then
+    loading them from its disk cache), in a fresh interpreter; unless ``quick``, also their cold
+    compilation (an empty ``NUMBA_CACHE_DIR``, as on a fresh install)."""
+    code = "from mbimpact.laws.coulomb import compile_kernels; print(*compile_kernels())"
+    cases = [("first call, kernels cached on disk", None)] + ([] if quick else [("first call, cold compile", "")])
+    rows = []
+    for label, cache in cases:
+        with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ)
+            if cache is not None:
+                env["NUMBA_CACHE_DIR"] = tmp
+            out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env)
+        imported, jitted = map(float, out.stdout.split()[-2:])
+        rows.append(BenchRow("coulomb", f"JIT, {label}", "import numba + load or compile the kernels", 0, 0.0,
+                             imported + jitted, math.nan))
+    return rows
+
+
+def batch_rates(size: int) -> dict[str, float]:
+    """Impacts per second of ``apply_batch`` at one UR5 configuration, NewtonLaw and RoughLaw(Cone):
+    best of 3 passes over ``size`` approaching velocities (what :func:`threads` runs in a child)."""
+    mech = Mechanism.from_robot("ur5")
+    rng = np.random.default_rng(11)
+    q = mech.random_configuration(rng)
+    J, A, n0 = mech.point_jacobian(q, "tool0"), mech.mass_matrix(q), np.array([0.0, 0.0, 1.0])
+    V = rng.normal(size=(size, mech.nv))
+    V[V @ (J.T @ n0) > 0] *= -1
+    rates = {}
+    for label, law in (("NewtonLaw", NewtonLaw(E)), ("RoughLaw(Cone)", RoughLaw(Cone(0.3), E))):
+        best = math.inf
+        for _ in range(3):
+            start = time.perf_counter()
+            law.apply_batch(A, J, V, n0)
+            best = min(best, time.perf_counter() - start)
+        rates[label] = size / best
+    return rates
+
+
+_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def threads(quick: bool, progress: Progress) -> list[BenchRow]:
+    """:func:`batch_rates` in two fresh interpreters: BLAS on one thread, and BLAS left to its default
+    (one thread per core) — the batches must not depend on it."""
+    size = 20_000 if quick else 100_000
+    code = f"import json; from mbimpact.apps.bench.speed import batch_rates; print(json.dumps(batch_rates({size})))"
+    rows = []
+    for label, value in (("BLAS threads = 1", "1"), ("BLAS threads: default", None)):
+        env = {k: v for k, v in os.environ.items() if k not in _THREAD_VARIABLES}
+        if value is not None:
+            env.update(dict.fromkeys(_THREAD_VARIABLES, value))
+        out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env)
+        for method, rate in json.loads(out.stdout.splitlines()[-1]).items():
+            rows.append(BenchRow("threads", f"ur5, {label}", f"apply_batch, {method}", size, 0.0, 1.0 / rate, rate))
+    progress.step("threads")
     return rows
 
 
@@ -216,6 +281,10 @@ def goals(rows: list[BenchRow]) -> list[Goal]:
     for r in find("batch", "ur5", "RoughLaw(Cone), adaptive"):
         out.append(Goal("ur5: apply_batch, RoughLaw(Cone), one configuration", 1e6, r.ratio, "impacts/s",
                         below=False))
+    for r in rows:
+        if r.part == "threads":
+            target = 1e7 if r.method.endswith("NewtonLaw") else 1e6
+            out.append(Goal(f"{r.case}: {r.method}, one configuration", target, r.ratio, "impacts/s", below=False))
     for r in find("configurations", "ur5", "impact_batch, NewtonLaw"):
         out.append(Goal(f"{r.case}: impact_batch, NewtonLaw", 1e5, 1.0 / r.seconds, "impacts/s", below=False))
     for r in find("import", None, "import mbimpact"):

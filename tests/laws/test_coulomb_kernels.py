@@ -1,0 +1,236 @@
+"""CoulombLaw's compiled phases (:mod:`mbimpact.laws.coulomb_kernels`).
+
+A batch equals its rows applied one by one (closed forms computed in Python for single impacts,
+the compiled phases for batches); the compiled code equals the same source interpreted
+(``NUMBA_DISABLE_JIT=1``) to the last bit; closed forms never import numba; failures are named
+errors; the first-call cost is measurable.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbimpact as mbi
+from mbimpact.laws import coulomb
+from mbimpact.laws.coulomb import compile_kernels
+
+from tests.helpers import spd, time_limit
+
+RESTITUTIONS = ["newton", "poisson", "energetic"]
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _compiled() -> None:
+    """Load (or compile, with a cold numba cache: seconds) the kernels outside any time limit."""
+    compile_kernels()
+
+
+def rod(theta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform rod (m = 1, l = 1) striking with one end at angle θ: A, J (2×3)."""
+    rx, rz = 0.5 * math.cos(theta), -0.5 * math.sin(theta)
+    return np.diag([1.0, 1.0, 1.0 / 12.0]), np.array([[1.0, 0.0, -rz], [0.0, 1.0, rx]])
+
+
+def spatial_rows(J: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Velocities whose contact velocities cover normal incidence, tiny, moderate and grazing slips
+    in all directions (sticking, stopping, curving, sliding throughout)."""
+    U = [[0.0, 0.0, -1.0], [1e-9, -2e-9, -1.0], [0.02, 0.01, -1.0], [0.3, -0.2, -1.0], [2.0, 1.0, -0.3]]
+    for angle in np.linspace(0.0, 2.0 * math.pi, 9)[:-1]:
+        for slip in (0.1, 0.6, 3.0):
+            U.append([slip * math.cos(angle), slip * math.sin(angle), -1.0])
+    U += [[*rng.normal(size=2), -abs(rng.normal()) - 0.05] for _ in range(8)]
+    return np.linalg.lstsq(J, np.array(U).T, rcond=None)[0].T
+
+
+@pytest.mark.parametrize("kind", RESTITUTIONS)
+@pytest.mark.parametrize("e", [0.0, 0.5, 1.0])
+def test_a_spatial_batch_equals_its_rows_applied_one_by_one(kind, e):
+    """Every row of apply_batch (the compiled phases) equals apply on it alone (Python closed forms,
+    or the compiled phases for one row) to 1e-12, with the same error estimate and step count; μ from
+    sliding throughout to sticking, an anisotropic W so that slips curve, and frictions too small to
+    stick so that stopped slips reverse."""
+    rng = np.random.default_rng(31)
+    A = spd(rng, 6, 30.0)
+    J = rng.normal(size=(3, 6))
+    V = spatial_rows(J, rng)
+    W = J @ np.linalg.solve(A, J.T)
+    stick = np.linalg.norm(np.linalg.solve(W[:2, :2], W[:2, 2]))
+    integrated = closed = 0
+    for mu in (0.0, 0.05, 0.3, 0.5 * stick, 1.5 * stick, 4.0 * stick + 1.0):
+        law = mbi.CoulombLaw(e, mu, kind)
+        with time_limit(60), warnings.catch_warnings():
+            warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+            batch = law.apply_batch(A, J, V, [0, 0, 1])
+            for i in range(len(V)):
+                one = law.apply(A, J, V[i], [0, 0, 1])
+                np.testing.assert_allclose(batch.V_plus[i], one.v_plus, rtol=1e-12,
+                                           atol=1e-12 * np.abs(one.v_plus).max())
+                np.testing.assert_allclose(batch.P[i], one.P, rtol=1e-12, atol=1e-12 * np.abs(one.P).max())
+                assert batch.error_estimate[i] == one.error_estimate
+        integrated += int(np.count_nonzero(batch.error_estimate))
+        closed += int(np.count_nonzero(batch.error_estimate == 0.0))
+    assert integrated > 20 and closed > 20  # both kinds of rows were compared
+
+
+@pytest.mark.parametrize("kind", RESTITUTIONS)
+def test_a_planar_batch_equals_its_rows_applied_one_by_one(kind):
+    """d = 2 (the rod): slips that stop and stick, stop and reverse, or slide throughout."""
+    A, J = rod(0.8)
+    W = J @ np.linalg.solve(A, J.T)
+    ratio = abs(W[0, 1] / W[0, 0])
+    V = np.linalg.lstsq(J, np.array([[ut, -1.0] for ut in (-3.0, -0.5, -0.2, 0.0, 1e-12, 0.1, 0.4, 2.0)]).T,
+                        rcond=None)[0].T
+    for e in (0.0, 0.7, 1.0):
+        for mu in (0.0, 0.5 * ratio, 2.0 * ratio, 0.2, 3.0):
+            law = mbi.CoulombLaw(e, mu, kind)
+            batch = law.apply_batch(A, J, V, [0, 1])
+            for i in range(len(V)):
+                one = law.apply(A, J, V[i], [0, 1])
+                np.testing.assert_allclose(batch.V_plus[i], one.v_plus, rtol=1e-12,
+                                           atol=1e-12 * np.abs(one.v_plus).max())
+                assert batch.nodes == 1 and one.nodes == 1  # planar: closed forms throughout
+
+
+# ---------------------------------------------------------------------- compiled = interpreted
+def kernel_problems() -> list[tuple[np.ndarray, np.ndarray, float, float, str]]:
+    """(W, U, e, μ, restitution): batches of unit velocities through the compiled phases."""
+    rng = np.random.default_rng(17)
+    out = []
+    for k in range(18):
+        d = 3 if k % 3 else 2
+        n = int(rng.integers(d, 6))
+        J = rng.normal(size=(d, n))
+        W = J @ np.linalg.solve(spd(rng, n, 100.0), J.T)
+        U = rng.normal(size=(5, d))
+        U[:, -1] = -np.abs(U[:, -1]) - 0.1
+        U[0, :-1] = 0.0  # normal incidence
+        U /= np.linalg.norm(U, axis=1)[:, None]
+        out.append((0.5 * (W + W.T), U, [0.0, 0.5, 1.0][k % 3], [0.05, 0.3, 1.0, 3.0][k % 4], RESTITUTIONS[k % 3]))
+    return out
+
+
+def kernel_results() -> list[object]:
+    """What CoulombLaw.contact_impulses gives on :func:`kernel_problems` (P, errors, nodes, or the
+    error's message), as raw bytes where floats."""
+    out: list[object] = []
+    for W, U, e, mu, kind in kernel_problems():
+        try:
+            res = mbi.CoulombLaw(e, mu, kind).contact_impulses(W, U)
+            out.append((res.P.tobytes(), res.error.tobytes(), res.nodes))
+        except mbi.ImpactError as exc:
+            out.append(str(exc))
+    return out
+
+
+def test_the_compiled_phases_equal_the_same_source_interpreted(tmp_path):
+    """numba's floats are the interpreter's: no fused multiply-add, x ** 2 by libm's pow (not x·x),
+    CPython's hypot: every impulse, step count and decision is the same to the last bit."""
+    script = textwrap.dedent(f"""
+        import pickle, sys
+        sys.path.insert(0, {str(ROOT)!r})
+        from tests.laws.test_coulomb_kernels import kernel_results
+        with open({str(tmp_path / 'interpreted.pkl')!r}, "wb") as f:
+            pickle.dump(kernel_results(), f)
+    """)
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", OPENBLAS_NUM_THREADS="1")
+    subprocess.run([sys.executable, "-c", script], check=True, env=env, cwd=ROOT, timeout=600)
+    with open(tmp_path / "interpreted.pkl", "rb") as f:
+        interpreted = pickle.load(f)
+    compiled = kernel_results()
+    assert sum(isinstance(r, tuple) and r[2] > 1 for r in compiled) >= 5  # integrated slips among them
+    assert compiled == interpreted
+
+
+def test_closed_forms_need_no_compiled_code():
+    """``import mbimpact`` does not import numba, nor does an impact whose impulse is one formula
+    (frictionless, sticking from normal incidence, a slip certain to stop in compression); the
+    first impact that needs the phases does."""
+    script = textwrap.dedent("""
+        import sys
+        import numpy as np
+        import mbimpact as mbi
+        assert "numba" not in sys.modules
+        W = np.array([[1.0, 0.3, 0.2], [0.3, 0.8, -0.1], [0.2, -0.1, 0.5]])
+        A, I3 = np.linalg.inv(W), np.eye(3)
+        for law, u in ((mbi.CoulombLaw(0.5, 0.0), [0.4, 0.3, -1.0]), (mbi.CoulombLaw(0.5, 2.0), [0.0, 0.0, -1.0]),
+                       (mbi.CoulombLaw(0.0, 3.0), [0.02, 0.01, -1.0]), (mbi.CoulombLaw(0.5, 3.0, "poisson"), [0.02, 0.01, -1.0])):
+            assert law.apply(A, I3, u, [0, 0, 1]).nodes == 1
+        assert "numba" not in sys.modules
+        mbi.CoulombLaw(0.5, 0.2).apply(A, I3, [0.8, -0.6, -1.0], [0, 0, 1])
+        assert "numba" in sys.modules
+    """)
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=ROOT, timeout=300,
+                   env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+
+
+def test_compile_kernels_reports_the_first_call_cost():
+    imported, jitted = compile_kernels()  # loaded already (the module fixture): nothing left to pay
+    assert 0.0 <= imported < 0.05 and 0.0 <= jitted < 0.05
+
+
+def test_hypot_is_cpythons_to_the_last_bit():
+    from mbimpact.laws.coulomb_kernels import py_hypot
+
+    rng = np.random.default_rng(3)
+    for lo, hi in [(-3, 3), (-320, 308), (-324, -300)]:
+        x = rng.normal(size=3000) * 10.0 ** rng.uniform(lo, hi, 3000)
+        y = rng.normal(size=3000) * 10.0 ** rng.uniform(lo, hi, 3000)
+        for a, b in zip(x.tolist(), y.tolist()):
+            assert py_hypot(a, b) == math.hypot(a, b), (a, b)
+    assert py_hypot(math.inf, math.nan) == math.inf and math.isnan(py_hypot(math.nan, 1.0))
+
+
+# ---------------------------------------------------------------------- named errors
+@pytest.mark.parametrize("rows", [1, 2])
+@pytest.mark.parametrize("W, u, mu, e, kind, message", [
+    ([[1.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 1.0]], [0.0, 0.0, -1.0], 5.0, 0.5, "energetic",
+     r"the contact jams while still approaching \(n·u = -1 at p_n = 0, mode stick\)"),
+    ([[1.0, 1.0], [1.0, 1.0]], [0.0, -1.0], 5.0, 0.5, "poisson",
+     r"the contact jams while still approaching \(n·u = -1 at p_n = 0, mode stick\)"),
+    ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -0.5]], [0.3, 0.0, -1.0], 0.0, 0.5, "energetic",
+     r"compression cannot end \(n·u = -0.958 with rate -0.333 at p_n = 0, mode free\)"),
+    ([[1.0, 0.0, 0.2], [0.0, 1.0, 0.0], [0.2, 0.0, -0.5]], [0.3, 0.0, -1.0], 0.3, 0.5, "newton",
+     r"compression cannot end \(n·u = -2.57 with rate -0.36 at p_n = 4.31022, mode stick\)"),
+])
+def test_failures_of_the_phases_are_named_errors(rows, W, u, mu, e, kind, message):
+    """Delassus matrices no mechanism has (singular along the sticking impulse, or a negative normal
+    entry): the compiled phases report what the interpreted law raised, word for word."""
+    U = np.array([u] * rows) / np.linalg.norm(u)
+    with pytest.raises(mbi.IntegrationError, match=message):
+        mbi.CoulombLaw(e, mu, kind).contact_impulses(np.array(W), U)
+
+
+def test_too_many_phases_is_a_named_error(monkeypatch):
+    """A planar slip that stops and sticks needs two phases."""
+    A, J = rod(0.8)
+    W = J @ np.linalg.solve(A, J.T)
+    v = np.linalg.lstsq(J, [0.1, -1.0], rcond=None)[0]
+    law = mbi.CoulombLaw(0.5, 2.0 * abs(W[0, 1] / W[0, 0]))
+    law.apply(A, J, v, [0, 1])
+    monkeypatch.setattr(coulomb, "_MAX_PHASES", 1)
+    with pytest.raises(mbi.IntegrationError, match=r"more than 1 phases at p_n = [0-9.e+-]+$"):
+        law.apply(A, J, v, [0, 1])
+
+
+def test_the_tableau_is_dop853s():
+    """The kernels carry Hairer's DOP853 coefficients themselves (scipy.integrate costs 0.4 s to import)."""
+    from scipy.integrate._ivp import dop853_coefficients as tableau
+
+    from mbimpact.laws import coulomb_kernels as kernels
+
+    n = tableau.N_STAGES
+    assert kernels._NS == n
+    for ours, theirs in ((kernels._A, tableau.A[:n, :n]), (kernels._B, tableau.B), (kernels._C, tableau.C[:n]),
+                         (kernels._E5, tableau.E5[:n]), (kernels._E3, tableau.E3[:n])):
+        assert np.array_equal(ours, theirs)
