@@ -1,4 +1,4 @@
-"""Regressions of the scene simulator's reproducers (``KNOWN`` of :mod:`tests.fuzz.test_fuzz_scenes`).
+"""Regressions of the scene simulator's reproducers, found by :mod:`tests.fuzz.test_fuzz_scenes` and its nightly runs.
 
 One test per reproducer: the exact error class and a fragment of its message, or the physics, with
 every warning turned into an error (no numpy RuntimeWarning may leak) and the calls that could hang
