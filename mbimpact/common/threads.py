@@ -12,6 +12,7 @@ are those of numpy and scipy (found once, on the first batch).
 from __future__ import annotations
 
 import contextlib
+import functools
 from contextlib import AbstractContextManager
 from typing import Any
 
@@ -21,7 +22,15 @@ __all__ = ["SINGLE_THREAD_ROWS", "single_blas_thread"]
 # limit's own cost (~10 µs) would show.
 SINGLE_THREAD_ROWS = 256
 
-_controller: list[Any] = []  # threadpoolctl's controller, made on first use: it scans the loaded libraries
+
+@functools.cache
+def _controller() -> Any:
+    """threadpoolctl's controller, made once, on the first batch (it scans the libraries loaded then:
+    scipy.linalg is imported first, so that it sees scipy's BLAS beside numpy's)."""
+    import scipy.linalg  # noqa: F401
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 def single_blas_thread(rows: int) -> AbstractContextManager[Any]:
@@ -32,14 +41,7 @@ def single_blas_thread(rows: int) -> AbstractContextManager[Any]:
     """
     if rows < SINGLE_THREAD_ROWS:
         return contextlib.nullcontext()
-    if not _controller:
-        # deferred (batches only); scipy.linalg first, so that the controller, which scans the
-        # libraries loaded when it is made, sees scipy's BLAS beside numpy's
-        import scipy.linalg  # noqa: F401
-        from threadpoolctl import ThreadpoolController
-
-        _controller.append(ThreadpoolController())
-    controller = _controller[0]
+    controller = _controller()
     if all(lib.num_threads == 1 for lib in controller.lib_controllers if lib.user_api == "blas"):
         return contextlib.nullcontext()
     return controller.limit(limits=1, user_api="blas")
