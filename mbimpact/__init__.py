@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from .averaging import METHODS as AVERAGING_METHODS
 from .averaging import Averaging
+from .common.compiled import compile_kernels
 from .errors import (
     AccuracyWarning,
     CollisionNotFoundError,
@@ -171,6 +172,7 @@ __all__ = [
     "e_from_k",
     "k_from_e",
     "impact_duration",
+    "compile_kernels",
     # compliant route
     "resolve",
     "Resolved",

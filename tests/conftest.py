@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
+import mbimpact as mbi
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
@@ -23,11 +25,9 @@ settings.load_profile("ci")
 
 @pytest.fixture(scope="session", autouse=True)
 def compiled_kernels() -> None:
-    """The Coulomb law's compiled kernels, loaded (or compiled, ~10 s on a fresh install) once before
+    """Every compiled kernel of the package, loaded (or compiled, ~15 s on a fresh install) once before
     any test, so that no test's time limit pays for the JIT."""
-    from mbimpact.laws.coulomb import compile_kernels
-
-    compile_kernels()
+    mbi.compile_kernels()
 
 
 @pytest.fixture

@@ -8,7 +8,8 @@ name            what it does                                                   `
 ``ring``        Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
 ``tilt-table``  Chebyshev tables of a tilt density in the incidence (exact)     tilt densities, ≥ 1024 rows
 ``graded``      quadrature graded towards the peaks of a nearly singular W      a peak narrower than 0.15
-``cone-pair``   a cone's first adaptive pass (32 + 64 nodes) in a few products one velocity on a cone
+``cone-pair``   a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
+``slope-pass``  a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
 ``fixed``       the measure's rule with ``nodes`` nodes                        ``nodes`` given
 ``adaptive``    the measure's rule doubled until ``rtol``                      otherwise
 ``monte-carlo`` ``samples`` facets drawn from P, with a standard error          never (a baseline)
@@ -28,6 +29,7 @@ from .exact import Exact, MonteCarlo
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
 from .ring import Ring
+from .slope_pass import SlopePass
 from .tilt_table import TiltTableMethod
 
 __all__ = [
@@ -42,6 +44,7 @@ __all__ = [
     "TiltTableMethod",
     "Graded",
     "ConePair",
+    "SlopePass",
     "Fixed",
     "Adaptive",
     "MonteCarlo",
@@ -49,8 +52,10 @@ __all__ = [
 
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
-    cls.name: cls for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, Fixed, Adaptive, MonteCarlo)
+    cls.name: cls
+    for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, SlopePass, Fixed, Adaptive, MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "fixed", "adaptive")
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "slope-pass", "fixed",
+                               "adaptive")

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,9 +26,13 @@ from ..common.threads import single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
+from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric, spread_bound
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
+
+if TYPE_CHECKING:
+    from ..mechanism.mechanism import Mechanism
 
 __all__ = ["ImpactLaw"]
 
@@ -146,8 +150,22 @@ class ImpactLaw(ABC):
         return P * (speed / w_scale)[:, None], err, nodes, method
 
     # ------------------------------------------------------------------ single
+    def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
+                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+        """The impact of a mechanism at a validated state (q, v), contact Jacobian ``J`` (d, nv) and
+        contact frame ``R`` (d, d): the metric of A(q) (stage 2), then :meth:`apply_metric`.
+
+        :func:`mbimpact.impact` calls this; a law with a counterpart in Pinocchio overrides it
+        (:class:`NewtonLaw`: ``pin.impulseDynamics``).
+        """
+        return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
+
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         """The impact at a validated metric, velocity ``v`` (n,) and contact frame ``R`` (d, d)."""
+        if len(R) == 3 and self._single_route() and self.dim in (None, 3):
+            compiled = self._compiled_single(metric, v, R)
+            if compiled is not None:
+                return compiled
         # (ndarray.dot rather than @ on this path: the same BLAS call, without the generalised ufunc's overhead)
         with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
             u = metric.J.dot(v)
@@ -170,6 +188,40 @@ class ImpactLaw(ABC):
         # result.separates, in floats where |u₋| is at hand
         separates = result.separates if speed is None else float(n0.dot(u_plus)) >= -SEPARATION_RTOL * speed
         if not separates:
+            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
+                 f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
+        return result
+
+    def _compiled_single(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]
+                         ) -> ImpactResult | None:
+        """:meth:`apply_metric` for one spatial impact, its arithmetic around the law compiled
+        (:func:`mbimpact.metric.kernels.contact_state` and :func:`~mbimpact.metric.kernels.outcome`):
+        the same checks, scalings and impulse as :meth:`impulses` for the contact velocity it reports
+        (to the last bit in a world-aligned contact frame, to rounding in another), in two calls
+        instead of some thirty on 3-vectors. None for what the general route treats: no approach,
+        n⁰ out of reach, a rank-deficient W."""
+        kernels = METRIC_KERNELS.get()
+        W = metric.W
+        status, u, W_local, U_local, speed, w_scale = kernels.contact_state(metric.J, v, W, R, DEGENERATE, 1e-12)
+        if status:
+            if status == kernels.U_NOT_FINITE:
+                check_in_range("the contact velocity J v", u)
+            if status == kernels.SPEED_INF:
+                raise NonFiniteError("the magnitude |u| of the contact velocity: beyond the float range (inf); "
+                                     "the inputs are finite but too large together (rescale the velocities)")
+            return None
+        out = self.contact_impulses(W_local, U_local)
+        Yt = metric.AinvJt.T
+        P, dv, v_plus, u_plus, finite = kernels.outcome(
+            out.P, R, speed / w_scale, Yt if Yt.flags.c_contiguous else np.ascontiguousarray(Yt), W, u, v)
+        if not finite:
+            check_in_range("the impact's outcome (P, v₊ or u₊)", P, v_plus, u_plus)
+        n0 = R[:, -1].copy()
+        result = ImpactResult(
+            v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0, A=metric.A, J=metric.J,
+            law=self, error_estimate=float(out.error[0]), nodes=out.nodes, method=out.method,
+        )
+        if not float(n0.dot(u_plus)) >= -SEPARATION_RTOL * speed:
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
                  f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
         return result

@@ -51,21 +51,24 @@ Where it runs
 -------------
 The phases run in :mod:`mbimpact.laws.coulomb_kernels`, compiled by numba and imported on
 first use (numba's import alone takes longer than ``import mbimpact`` may; see
-:func:`compile_kernels` for that one-off cost). A single impact whose impulse is one formula
-(frictionless, from normal incidence while sticking is possible, or a 3-D slip certain to stop
-during compression) is computed here in floats and never needs them.
+:func:`compile_kernels` for that one-off cost). Until then, a single impact whose impulse is one
+formula (frictionless, from normal incidence while sticking is possible, or a 3-D slip certain to
+stop during compression) is computed here in floats and never needs them. Once they are loaded,
+every single impact is one compiled call from floats — the setup of W, the unit velocity and the
+impulse together — which costs less than those floats do in Python (the arithmetic is the same
+either way, to the last bit).
 """
 
 from __future__ import annotations
 
 import math
-import time
 from types import ModuleType
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
 from ..common.validation import as_scalar, check_in_range, quiet_overflow
 from ..errors import IntegrationError, NoSeparationWarning, ParameterError, warn
@@ -75,9 +78,11 @@ from ..results.quantities import SEPARATION_RTOL
 from .base import ImpactLaw
 from .restitution import restitution_from
 
-__all__ = ["CoulombLaw", "compile_kernels"]
+__all__ = ["CoulombLaw", "KERNELS", "compile_kernels"]
 
 _RESTITUTION = ("newton", "poisson", "energetic")
+# the restitution codes of the kernels (their NEWTON, POISSON, ENERGETIC), as floats: the law tuple is all floats
+_KIND = {name: float(code) for code, name in enumerate(_RESTITUTION)}
 
 # Eigenvalues of W_tt / tr W below this count as zero (a rank-deficient tangential block).
 _CUT = 1e-12
@@ -90,8 +95,8 @@ _UN_ZERO = 1e-12
 _STOP = 1e-2
 _MAX_PHASES = 64
 _MAX_STEPS = 100_000
-# (these reach the compiled phases as values at every call, never as globals that numba would freeze
-# into its on-disk cache)
+# (these, with _CUT and common.geometry's DEGENERATE, reach the compiled phases as values at every call
+# (CoulombLaw._law), never as globals that numba would freeze into its on-disk cache)
 
 # Friction coefficients beyond it are sticks within 1e-6 (a slip stops within a normal impulse
 # 1/(μ α_min) of the impact's), and their slip stages fall below what the phases resolve.
@@ -185,27 +190,27 @@ class CoulombLaw(ImpactLaw):
         IntegrationError
             The integration of a turning slip gave up (the message says where).
         """
-        setup = _Setup(np.asarray(W, dtype=float).tolist(), self.mu)
+        w = np.asarray(W, dtype=float).tolist()
         U = np.ascontiguousarray(U, dtype=float)
-        if len(U) == 1:  # one row: a closed form needs no compiled code
+        if len(U) == 1 and not KERNELS.ready:  # one row before numba is loaded: a closed form needs none of it
+            setup = _setup(w, self.mu)
+            d, tr = setup[0], setup[1]
             u = U[0].tolist()
-            whole = _closed_form(setup, u[0], u[1] if setup.d == 3 else 0.0, u[-1], self.e, self.restitution)
+            whole = _closed_form(setup, self.mu, u[0], u[1] if d == 3 else 0.0, u[-1], self.e, self.restitution)
             if whole is not None:
-                P = np.array([whole] if setup.d == 3 else [[whole[0], whole[2]]]) / setup.tr
+                P = np.array([whole] if d == 3 else [[whole[0], whole[2]]]) / tr
                 return ContactImpulses(P, np.zeros(1), 1, "impulse-space")
-        kernels = _kernels()
+        kernels = KERNELS.get()
         P = np.empty_like(U)
-        steps = np.zeros(len(U), dtype=np.int64)
-        info = np.zeros(5)
-        bad = kernels.impact_rows(self._pack(setup, kernels), U, P, steps, info)
-        if bad >= 0:
-            raise self._failure(int(info[0]), info[1:].tolist(), kernels)
-        P /= setup.tr  # the core works on W / tr W
-        nodes = max(1, int(steps.max(initial=0)))
-        return ContactImpulses(P, np.where(steps > 0, self.rtol, 0.0), nodes, "impulse-space")
+        error = np.empty(len(U))
+        row, status, steps, *info = kernels.impact_rows(_flat(w), self._law(), U, P, error)
+        if row >= 0:
+            raise self._failure(status, info, kernels)
+        return ContactImpulses(P, error, max(1, steps), "impulse-space")
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
-        """:meth:`ImpactLaw.apply_metric` without the batch machinery: one impact in floats.
+        """:meth:`ImpactLaw.apply_metric` without the batch machinery: one impact in floats, and at most
+        one compiled call (:meth:`_single`).
 
         The degenerate cases (no approach, n⁰ out of reach, rank-deficient J) take the
         general route, which names the error or reports the minimum-norm impulse.
@@ -220,43 +225,18 @@ class CoulombLaw(ImpactLaw):
             d = len(ul)
             rl = R.tolist()
             world = rl == _EYE[d]  # the rotations are exact no-ops: skipped
-            if not world:
-                ul = u.dot(R).tolist()  # local frame
-            if not ul[-1] < 0.0:
+            local = ul if world else u.dot(R).tolist()
+            if not local[-1] < 0.0:
                 return super().apply_metric(metric, v, R)
-            setup = _Setup(W.tolist() if world else R.T.dot(W).dot(R).tolist(), self.mu)
-            # what ImpactLaw.impulses checks (n0ᵀWn0 > 0) and ContactMetric.range_projector tests
-            # (spread_bound = det(W / tr W)), read off the setup instead of recomputed
-            if not setup.w33 > DEGENERATE or not setup.det > 1e-12:
+            single = self._single(W.tolist() if world else R.T.dot(W).dot(R).tolist(), local)
+            if single is None:
                 return super().apply_metric(metric, v, R)
-            # the unit velocity, scaled first (no over- or underflow); the squares by ** (libm's pow) as ever
-            if d == 3:
-                x1, x2, xn = ul
-                big = max(abs(x1), abs(x2), abs(xn))
-                speed = big * math.sqrt((x1 / big) ** 2 + (x2 / big) ** 2 + (xn / big) ** 2)
-                u1, u2, un = x1 / speed, x2 / speed, xn / speed
-            else:
-                x1, xn = ul
-                big = max(abs(x1), abs(xn))
-                speed = big * math.sqrt((x1 / big) ** 2 + (xn / big) ** 2)
-                u1, u2, un = x1 / speed, 0.0, xn / speed
-            whole = _closed_form(setup, u1, u2, un, self.e, self.restitution)
-            if whole is None:
-                kernels = _kernels()
-                status, p1, p2, pn, steps, *info = kernels.impact_one(self._pack(setup, kernels), u1, u2, un)
-                if status:
-                    raise self._failure(status, info, kernels)
-                whole = [p1, p2, pn]
-            else:
-                steps = 0
-            scale = speed / setup.tr
-            if d == 2:
-                del whole[1]
+            p1, p2, pn, steps, scale, speed = single
             if world:
-                Pl = [x * scale for x in whole]
+                Pl = [p1 * scale, p2 * scale, pn * scale] if d == 3 else [p1 * scale, pn * scale]
                 P = np.array(Pl)
             else:
-                P = R.dot(whole) * scale
+                P = R.dot([p1, p2, pn] if d == 3 else [p1, pn]) * scale
                 Pl = P.tolist()
             dv = metric.AinvJt.dot(P)
             u_plus = u + W.dot(P)
@@ -269,21 +249,60 @@ class CoulombLaw(ImpactLaw):
             v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=R[:, -1].copy(), A=metric.A,
             J=J, law=self, error_estimate=self.rtol if steps else 0.0, nodes=max(steps, 1), method="impulse-space",
         )
-        if sum([row[-1] * x for row, x in zip(rl, up)]) < -SEPARATION_RTOL * speed:  # result.separates, in floats
+        # result.separates, in floats: n⁰·u₊ (of the world frame, u₊'s last entry exactly)
+        if world:
+            un_plus = up[-1]
+        elif d == 3:
+            un_plus = rl[0][2] * up[0] + rl[1][2] * up[1] + rl[2][2] * up[2]
+        else:
+            un_plus = rl[0][1] * up[0] + rl[1][1] * up[1]
+        if un_plus < -SEPARATION_RTOL * speed:
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
                  f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
         return result
 
-    # ------------------------------------------------------------------ the compiled phases
-    def _pack(self, setup: _Setup, kernels: ModuleType) -> NDArray[np.float64]:
-        """The kernels' setup array: W's setup, the law, and the tolerances (read now: tests lower them)."""
-        return kernels.pack(setup, self.e, getattr(kernels, self.restitution.upper()), self.rtol, _JAM, _UN_ZERO,
-                            _STOP, _MAX_PHASES, _MAX_STEPS)
+    # ------------------------------------------------------------------ one impact
+    def _single(self, W: list[list[float]], u: list[float]) -> tuple[float, float, float, int, float, float] | None:
+        """The impulse of one impact at the Delassus matrix ``W`` and contact velocity ``u``, local frame.
+
+        Returns (P_t1, P_t2, p_n) for the unit velocity u / |u| at W / tr W (P_t2 = 0 when d = 2), the
+        integration steps, |u| / tr W (what turns it into the impact's impulse) and |u|; or None for
+        what the general route names or treats: n⁰ᵀWn⁰ ≈ 0 (:meth:`ImpactLaw.impulses`' test) and a
+        rank-deficient W (det(W / tr W) ≤ 1e-12, :attr:`ContactMetric.range_projector`'s).
+
+        Until numba is loaded a closed form is computed here in floats; once it is, every impact is
+        one compiled call, cheaper than the floats (the same arithmetic, to the last bit).
+        """
+        kernels = KERNELS.module
+        if kernels is None:
+            setup = _setup(W, self.mu)
+            if not setup[6] > DEGENERATE or not setup[16] > 1e-12:  # c = n⁰ᵀWn⁰ / tr W, det(W / tr W)
+                return None
+            speed, u1, u2, un = _unit(u)
+            whole = _closed_form(setup, self.mu, u1, u2, un, self.e, self.restitution)
+            if whole is not None:
+                return whole[0], whole[1], whole[2], 0, speed / setup[1], speed
+            kernels = KERNELS.get()
+        x1, x2, xn = u if len(u) == 3 else (u[0], 0.0, u[1])
+        status, p1, p2, pn, steps, scale, speed, *info = kernels.impact_one(_flat(W), self._law(), x1, x2, xn)
+        if status:
+            if status == kernels.OUT_OF_REACH:
+                return None
+            raise self._failure(status, info, kernels)
+        return p1, p2, pn, steps, scale, speed
+
+    def _law(self) -> tuple[float, ...]:
+        """The kernels' law tuple: the law and the tolerances (read now: tests lower them), all floats
+        (one compiled signature)."""
+        return (self.mu, self.e, _KIND[self.restitution], self.rtol, _JAM, _UN_ZERO, _STOP, float(_MAX_PHASES),
+                float(_MAX_STEPS), _CUT, DEGENERATE)
 
     @staticmethod
     def _failure(status: int, info: list[float], kernels: ModuleType) -> IntegrationError:
         """The named error of a kernel's failure ``status`` with its numbers ``info``."""
         a, b, c, mode = info
+        if status == kernels.BAD_TRACE:
+            return IntegrationError(f"the Delassus matrix must have a positive finite trace, got {a!r}")
         if status == kernels.JAMMED:
             return IntegrationError(
                 f"Coulomb impact: the contact jams while still approaching (n·u = {a:.3g} at p_n = {b:.6g}, mode "
@@ -305,123 +324,110 @@ class CoulombLaw(ImpactLaw):
         return IntegrationError(f"Coulomb impact: more than {_MAX_PHASES} phases at p_n = {a:.6g}")
 
 
-_KERNELS: ModuleType | None = None
-
-
-def _kernels() -> ModuleType:
-    """:mod:`mbimpact.laws.coulomb_kernels`, made ready on first use (:func:`compile_kernels`)."""
-    if _KERNELS is None:
-        compile_kernels()
-    assert _KERNELS is not None
-    return _KERNELS
+#: The compiled phases of :class:`CoulombLaw` (:mod:`mbimpact.laws.coulomb_kernels`), loaded on first use.
+KERNELS = KernelModule("mbimpact.laws.coulomb_kernels")
 
 
 def compile_kernels() -> tuple[float, float]:
-    """Make the compiled phases of :class:`CoulombLaw` ready, and time it.
-
-    The first impact that needs them does this once per process (both of the kernels' entry
-    points at once, so that no later first call pays anything).
-
-    Returns
-    -------
-    (import_seconds, jit_seconds) : tuple of float
-        Wall times of importing :mod:`mbimpact.laws.coulomb_kernels` (numba, mostly) and of making
-        its machine code callable: numba's start-up and the loading of the code from its on-disk
-        cache, or its compilation when that cache is missing or stale. Their sum is what the first
-        impact that needs the phases pays; both are ~0 once done in the process. For that first-call
-        cost, call this in a fresh interpreter; for the cold compilation, with ``NUMBA_CACHE_DIR`` set
-        to an empty directory.
-    """
-    global _KERNELS
-    start = time.perf_counter()
-    from . import coulomb_kernels
-
-    imported = time.perf_counter() - start
-    jitted = float(coulomb_kernels.jit_seconds())
-    _KERNELS = coulomb_kernels
-    return imported, jitted
+    """Make the compiled phases of :class:`CoulombLaw` ready, and time it: what the first impact that
+    needs them pays once per process (both of the kernels' entry points at once, so that no later
+    first call pays anything). ``(import_seconds, jit_seconds)``, see :meth:`KernelModule.compile`."""
+    return KERNELS.compile()
 
 
 # ---------------------------------------------------------------------- shared per W
-class _Setup:
+# What a closed form needs of a Delassus matrix (:func:`_setup`): a plain tuple, unpacked at once where
+# it is read (a closed form in floats then costs ~15 % less than through a slotted object's attributes)
+_SetupTuple = tuple[int, float, float, float, float, float, float, float, float, float, float, float, float, float,
+                    float, bool, float]
+
+
+def _setup(W: list[list[float]], mu: float) -> _SetupTuple:
     """What every row at one Delassus matrix shares, for W / tr W, in floats.
 
-    A planar W (d = 2) is stored as a spatial one without the second tangential axis (its
-    entries 0), the layout of :func:`mbimpact.laws.coulomb_kernels.pack`.
+    A planar W (d = 2) is the spatial one without the second tangential axis (its entries 0).
+    The kernels' ``_setup`` computes the same, operation for operation (a single impact in
+    floats here and one through the kernels agree to the last bit).
 
-    Attributes
-    ----------
-    d : int
-        Contact-space dimension.
-    tr : float
-        tr W (the core works on W / tr W; impulses are divided by it at the end).
-    w11 … w33 : float
-        W / tr W in the local frame (t₁, t₂, n): W_tt, the coupling b = (w13, w23), c = w33.
-    ai11, ai12, ai22 : float
-        The pseudo-inverse W_tt⁺ (symmetric).
-    alpha_min, anorm, bnorm : float
-        Smallest eigenvalue of W_tt (0 when cut), largest, and |b|.
-    g1, g2, stick_norm : float
-        Sticking rate g = dP_t/dp_n = −W_tt⁺ b (keeps u_t = 0) and |g|.
-    can_stick : bool
-        |g| ≤ μ: a slip that stops sticks.
-    mu, det : float
-        The friction; det(W / tr W).
+    Returns
+    -------
+    (d, tr, b1, b2, w31, w32, c, ai11, ai12, ai22, alpha_min, bnorm, g1, g2, stick_norm, can_stick, det)
+        The contact-space dimension; tr W (the core works on W / tr W, its impulses divided by tr W
+        at the end); of W / tr W in the local frame (t₁, t₂, n), the coupling b = (w13, w23), the
+        normal row's (w31, w32) and c = w33; the pseudo-inverse W_tt⁺ (symmetric); the smallest
+        eigenvalue of W_tt (0 when cut) and |b|; the sticking rate g = dP_t/dp_n = −W_tt⁺ b (keeps
+        u_t = 0) and |g|; whether |g| ≤ μ (a slip that stops sticks); det(W / tr W).
+
+    Raises
+    ------
+    IntegrationError
+        tr W is not positive and finite.
     """
+    d = len(W)
+    if d == 3:
+        (w11, w12, w13), (w21, w22, w23), (w31, w32, w33) = W
+        tr = w11 + w22 + w33
+    else:
+        (w11, w13), (w31, w33) = W
+        tr = w11 + w33 + 0.0
+    if not (tr > 0.0 and math.isfinite(tr)):
+        raise IntegrationError(f"the Delassus matrix must have a positive finite trace, got {tr!r}")
+    w11, w13, w31, w33 = w11 / tr, w13 / tr, w31 / tr, w33 / tr
+    if d == 2:
+        w23 = w32 = 0.0
+        alpha_min = w11 if w11 > _CUT else 0.0
+        ai11, ai12, ai22 = (1.0 / w11 if w11 > _CUT else 0.0), 0.0, 0.0
+        det = w11 * w33 - w13 * w31
+    else:
+        w12, w22, w23, w32 = w12 / tr, w22 / tr, w23 / tr, w32 / tr
+        m, half = 0.5 * (w11 + w22), 0.5 * (w11 - w22)
+        hi = m + math.hypot(half, w12)
+        det = w11 * w22 - w12 * w12
+        lo = max(det / hi, 0.0) if hi > 0.0 else 0.0  # no cancellation in m − rad
+        if lo > _CUT:
+            alpha_min = lo
+            ai11, ai12, ai22 = w22 / det, -w12 / det, w11 / det
+        else:  # rank ≤ 1: W_tt⁺ = q qᵀ / α along the one eigenvector left
+            alpha_min = 0.0
+            phi = 0.5 * math.atan2(2.0 * w12, w11 - w22)
+            q1, q2 = math.cos(phi), math.sin(phi)
+            inv = 1.0 / hi if hi > _CUT else 0.0
+            ai11, ai12, ai22 = q1 * q1 * inv, q1 * q2 * inv, q2 * q2 * inv
+        # det(W / tr W) (rotation-invariant): spread_bound's test of a rank-deficient W
+        det = w11 * (w22 * w33 - w23 * w23) - w12 * (w12 * w33 - w23 * w13) + w13 * (w12 * w23 - w22 * w13)
+    g1, g2 = -(ai11 * w13 + ai12 * w23), -(ai12 * w13 + ai22 * w23)
+    stick_norm = math.sqrt(g1 * g1 + g2 * g2)
+    return (d, tr, w13, w23, w31, w32, w33, ai11, ai12, ai22, alpha_min, math.sqrt(w13 * w13 + w23 * w23), g1, g2,
+            stick_norm, mu > 0.0 and stick_norm <= mu * (1.0 + 1e-12), det)
 
-    __slots__ = ("d", "tr", "w11", "w12", "w13", "w21", "w22", "w23", "w31", "w32", "w33", "ai11", "ai12", "ai22",
-                 "alpha_min", "anorm", "bnorm", "g1", "g2", "stick_norm", "can_stick", "mu", "det")
 
-    def __init__(self, W: list[list[float]], mu: float) -> None:
-        d = len(W)
-        if d == 3:
-            (w11, w12, w13), (w21, w22, w23), (w31, w32, w33) = W
-            tr = w11 + w22 + w33
-        else:
-            (w11, w13), (w31, w33) = W
-            tr = w11 + w33 + 0.0
-        if not (tr > 0.0 and math.isfinite(tr)):
-            raise IntegrationError(f"the Delassus matrix must have a positive finite trace, got {tr!r}")
-        w11, w13, w31, w33 = w11 / tr, w13 / tr, w31 / tr, w33 / tr
-        if d == 3:
-            w12, w21, w22, w23, w32 = w12 / tr, w21 / tr, w22 / tr, w23 / tr, w32 / tr
-        else:
-            w12 = w21 = w22 = w23 = w32 = 0.0
-        self.d, self.tr, self.mu = d, tr, mu
-        self.w11, self.w12, self.w13, self.w21, self.w22, self.w23 = w11, w12, w13, w21, w22, w23
-        self.w31, self.w32, self.w33 = w31, w32, w33
-        if d == 2:
-            self.alpha_min = w11 if w11 > _CUT else 0.0
-            ai11, ai12, ai22 = (1.0 / w11 if w11 > _CUT else 0.0), 0.0, 0.0
-            self.anorm = abs(w11)
-            self.det = w11 * w33 - w13 * w31
-        else:
-            a11, a12, a22 = w11, w12, w22
-            m, half = 0.5 * (a11 + a22), 0.5 * (a11 - a22)
-            hi = m + math.hypot(half, a12)
-            det = a11 * a22 - a12 * a12
-            lo = max(det / hi, 0.0) if hi > 0.0 else 0.0  # no cancellation in m − rad
-            self.anorm = hi
-            if lo > _CUT:
-                self.alpha_min = lo
-                ai11, ai12, ai22 = a22 / det, -a12 / det, a11 / det
-            else:  # rank ≤ 1: W_tt⁺ = q qᵀ / α along the one eigenvector left
-                self.alpha_min = 0.0
-                phi = 0.5 * math.atan2(2.0 * a12, a11 - a22)
-                q1, q2 = math.cos(phi), math.sin(phi)
-                inv = 1.0 / hi if hi > _CUT else 0.0
-                ai11, ai12, ai22 = q1 * q1 * inv, q1 * q2 * inv, q2 * q2 * inv
-            # det(W / tr W) (rotation-invariant): spread_bound's test of a rank-deficient W
-            self.det = w11 * (w22 * w33 - w23 * w23) - w12 * (w12 * w33 - w23 * w13) + w13 * (w12 * w23 - w22 * w13)
-        self.ai11, self.ai12, self.ai22 = ai11, ai12, ai22
-        self.g1, self.g2 = g1, g2 = -(ai11 * w13 + ai12 * w23), -(ai12 * w13 + ai22 * w23)
-        self.stick_norm = math.sqrt(g1 * g1 + g2 * g2)
-        self.bnorm = math.sqrt(w13 * w13 + w23 * w23)
-        self.can_stick = mu > 0.0 and self.stick_norm <= mu * (1.0 + 1e-12)
+def _flat(W: list[list[float]]) -> tuple[float, ...]:
+    """``W`` as the kernels take it: (d, w11, w12, w13, w21, w22, w23, w31, w32, w33), a planar W in
+    the corners (the second tangential axis 0)."""
+    if len(W) == 3:
+        (a, b, c), (d, e, f), (g, h, k) = W
+        return 3.0, a, b, c, d, e, f, g, h, k
+    (a, c), (g, k) = W
+    return 2.0, a, 0.0, c, 0.0, 0.0, 0.0, g, 0.0, k
+
+
+def _unit(u: list[float]) -> tuple[float, float, float, float]:
+    """(|u|, u / |u|) of a contact velocity u (d = 2: its second tangential component 0), scaled
+    first (no over- or underflow), the squares by ``**`` (libm's pow, as the kernels' ``_square``)."""
+    if len(u) == 3:
+        x1, x2, xn = u
+        big = max(abs(x1), abs(x2), abs(xn))
+        speed = big * math.sqrt((x1 / big) ** 2 + (x2 / big) ** 2 + (xn / big) ** 2)
+        return speed, x1 / speed, x2 / speed, xn / speed
+    x1, xn = u
+    big = max(abs(x1), abs(xn))
+    speed = big * math.sqrt((x1 / big) ** 2 + (xn / big) ** 2)
+    return speed, x1 / speed, 0.0, xn / speed
 
 
 # ---------------------------------------------------------------------- one formula
-def _closed_form(s: _Setup, u1: float, u2: float, un: float, e: float, kind: str) -> list[float] | None:
+def _closed_form(s: _SetupTuple, mu: float, u1: float, u2: float, un: float, e: float, kind: str
+                 ) -> list[float] | None:
     """The impulse (P_t1, P_t2, p_n) of a whole impact in one formula, or None (the compiled phases').
 
     With a constant tangential rate g the normal velocity is linear, u_n = u_n⁻ + k p (k = c + bᵀg),
@@ -432,35 +438,33 @@ def _closed_form(s: _Setup, u1: float, u2: float, un: float, e: float, kind: str
     Δp = √V₀ / ((μ − |g|) √α_min), and compression cannot end before −u_n / (c + μ |b|). Newton's end
     (u_n = −e u_n⁻), Poisson's (p = (1 + e) p_c) and e = 0 then follow from u_n = u_n⁻ − bᵀW_tt⁻¹u_t⁻ + S p
     (Stronge's would need the work of the slip). The same arithmetic as the kernels' ``_whole_impact``
-    (u = (u1, u2, un) unit, local frame, W / tr W; u2 = 0 when d = 2); None for a jam (k ≈ 0) and for
-    slipping from normal incidence, whose invariant direction the kernels find.
+    (``s`` the :func:`_setup` of W at friction μ, u = (u1, u2, un) unit, local frame, W / tr W; u2 = 0
+    when d = 2); None for a jam (k ≈ 0) and for slipping from normal incidence, whose invariant
+    direction the kernels find.
     """
-    mu = s.mu
+    d, _, b1, b2, w31, w32, c, ai11, ai12, ai22, alpha_min, bnorm, g1, g2, stick_norm, can_stick, _ = s
     r = math.sqrt(u1 * u1 + u2 * u2)
     if mu == 0.0 or r == 0.0:
         if mu == 0.0:
             g1 = g2 = 0.0
-        elif s.can_stick:
-            g1, g2 = s.g1, s.g2
-        else:
+        elif not can_stick:
             return None
-        k = s.w31 * g1 + s.w32 * g2 + s.w33
+        k = w31 * g1 + w32 * g2 + c
         if not k > _JAM * (1.0 + (g1 * g1 + g2 * g2)):
             return None
         p = (1.0 + e) * -un / k
         return [g1 * p, g2 * p, p]
-    if s.d != 3 or not (s.can_stick and s.alpha_min > 0.0) or (kind == "energetic" and e > 0.0):
+    if d != 3 or not (can_stick and alpha_min > 0.0) or (kind == "energetic" and e > 0.0):
         return None
-    margin = mu - s.stick_norm
+    margin = mu - stick_norm
     if not margin > 1e-9 * mu:
         return None
-    ai11, ai12, ai22, b1, b2 = s.ai11, s.ai12, s.ai22, s.w13, s.w23
     V = u1 * (ai11 * u1 + ai12 * u2) + u2 * (ai12 * u1 + ai22 * u2)
-    bound = 1.000001 * math.sqrt(max(V, 0.0)) / (margin * math.sqrt(s.alpha_min))
-    if not (bound < 0.5 * (-un / (s.w33 + mu * s.bnorm)) and bound > 0.0):
+    bound = 1.000001 * math.sqrt(max(V, 0.0)) / (margin * math.sqrt(alpha_min))
+    if not (bound < 0.5 * (-un / (c + mu * bnorm)) and bound > 0.0):
         return None
-    schur = s.w33 + b1 * s.g1 + b2 * s.g2
-    if not schur > _JAM * (1.0 + s.stick_norm) ** 2:
+    schur = c + b1 * g1 + b2 * g2
+    if not schur > _JAM * (1.0 + stick_norm) ** 2:
         return None
     beta = b1 * (ai11 * u1 + ai12 * u2) + b2 * (ai12 * u1 + ai22 * u2)  # bᵀ W_tt⁻¹ u_t⁻
     if kind == "newton":

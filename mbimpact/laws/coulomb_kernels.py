@@ -6,14 +6,23 @@ forms for the phases of constant tangential rate, a Dormand–Prince 8(5,3) inte
 disk). It is imported on first use only: numba costs ~0.3 s to import, more than ``import
 mbimpact`` may take. :func:`jit_seconds` loads or compiles it and says how long that took.
 
+Two entry points, one compiled call each, on floats where they can be (numba's dispatch costs
+~20 ns a float and ~0.1 µs an array): :func:`impact_one`, a whole single impact from W and the
+contact velocity (the setup, the unit velocity and the impulse), and :func:`impact_rows`, the
+rows of a batch. Both take W as the tuple ``(d, w11, w12, w13, w21, w22, w23, w31, w32, w33)``
+(a planar W in the corners, the second tangential axis 0) and the law as the tuple of
+:data:`LAW_SIZE` floats ``(μ, e, restitution, rtol, jam, u_n zero, stop, max phases, max steps,
+rank cut, degenerate)``.
+
 Everything is in floats on two small arrays, for speed and so that the arithmetic is the same
 operation for operation whatever runs it (CPython's ``math.hypot`` included, see
 :func:`py_hypot`):
 
 * the setup ``S`` (:data:`SETUP_SIZE` floats, what every row at one Delassus matrix shares, for
-  W / tr W): the entries of W, W_tt⁺, the sticking rate, the friction, restitution and
-  tolerances, filled by :func:`pack`; a planar contact (d = 2) is the spatial one with the second
-  tangential axis absent (its entries 0, which adds exact zeros only);
+  W / tr W): the law and its tolerances, then the entries of W, W_tt⁺, the sticking rate, filled
+  by :func:`_setup` — the same arithmetic as :mod:`mbimpact.laws.coulomb`'s ``_setup``; a planar
+  contact (d = 2) is the spatial one with the second tangential axis absent (its entries 0, which
+  adds exact zeros only);
 * the row state ``X`` (:data:`ROW_SIZE` floats): the unit pre-impact velocity u₋ (local frame,
   W / tr W), the normal impulse p (the clock), the tangential impulse P_t, the normal work of the
   current stage, the stage and, for an error, what its message reports.
@@ -29,25 +38,25 @@ from __future__ import annotations
 
 import math
 import time
-from types import SimpleNamespace
-from typing import Any
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["pack", "impact_rows", "impact_one", "jit_seconds", "py_hypot", "NEWTON", "POISSON", "ENERGETIC", "MODES",
-           "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES"]
+__all__ = ["impact_rows", "impact_one", "jit_seconds", "py_hypot", "NEWTON", "POISSON", "ENERGETIC", "MODES",
+           "LAW_SIZE", "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES", "BAD_TRACE",
+           "OUT_OF_REACH"]
 
 # ---------------------------------------------------------------------- layouts
-# the setup S: d, tr W, the rows of W / tr W (t₁, t₂, n), W_tt⁺ (symmetric), its norms, the sticking
-# rate g = −W_tt⁺ b with |g| and whether |g| ≤ μ, the law, the tolerances, the slip direction kept
-# by the flow from u_t = 0 when the contact cannot stick (and whether it has been computed), and 2.0
-# (see :func:`_square`)
-(D, TR, W11, W12, W13, W21, W22, W23, W31, W32, W33, AI11, AI12, AI22, ALPHA_MIN, ANORM, BNORM, G1, G2,
- STICK_NORM, CAN_STICK, MU, E, KIND, RTOL, JAM, UN_ZERO, STOP, MAX_PHASES, MAX_STEPS, RESLIP, RS1,
- RS2, TWO) = range(34)
-SETUP_SIZE = 34
+# the setup S: the law and its tolerances (the law tuple, as given), then d, tr W, the rows of W / tr W
+# (t₁, t₂, n), W_tt⁺ (symmetric), its norms, the sticking rate g = −W_tt⁺ b with |g| and whether |g| ≤ μ,
+# det(W / tr W), the slip direction kept by the flow from u_t = 0 when the contact cannot stick (and
+# whether it has been computed), and 2.0 (see :func:`_square`)
+(MU, E, KIND, RTOL, JAM, UN_ZERO, STOP, MAX_PHASES, MAX_STEPS, CUT, DEGENERATE,
+ D, TR, W11, W12, W13, W21, W22, W23, W31, W32, W33, AI11, AI12, AI22, ALPHA_MIN, ANORM, BNORM, G1, G2,
+ STICK_NORM, CAN_STICK, DET, RESLIP, RS1, RS2, TWO) = range(37)
+LAW_SIZE = D
+SETUP_SIZE = 37
 # the row state X: u₋, the state of the impact, the stage, integration steps, error report
 (U1, U2, UN0, P, PT1, PT2, WK, COMP, PC, WC, STEPS, INFO) = range(12)
 ROW_SIZE = INFO + 4
@@ -60,8 +69,9 @@ MODES = ("free", "stick", "reslip", "slip")
 # status codes: 0 done, or a failure with X[INFO:] = the numbers its message reports: jammed while
 # approaching (n·u, p_n, mode); compression cannot end (n·u, its rate, p_n, mode); a phase of infinite
 # length (p_n); the slip integration stalled (p_n, |u_t|, compressing); too many integration steps
-# (p_n, |u_t|); too many phases (p_n)
-JAMMED, NO_END, INFINITE, STALLED, TOO_MANY_STEPS, TOO_MANY_PHASES = 1, 2, 3, 4, 5, 6
+# (p_n, |u_t|); too many phases (p_n); tr W not positive and finite (tr W). OUT_OF_REACH is no failure
+# of the law: n⁰ᵀWn⁰ ≈ 0 or a rank-deficient W, which the caller's general route names or treats
+JAMMED, NO_END, INFINITE, STALLED, TOO_MANY_STEPS, TOO_MANY_PHASES, BAD_TRACE, OUT_OF_REACH = 1, 2, 3, 4, 5, 6, 7, 8
 
 # Dormand–Prince 8(5,3) (Hairer's DOP853, the floats of scipy.integrate's dop853_coefficients), frozen
 # into the compiled code as constants: the nodes c, the stage weights a (row i: the stages j < i), the
@@ -101,22 +111,6 @@ _E3 = np.array([-0.18980075407240762, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8
 _T27 = 134217729.0  # 2²⁷ + 1: Veltkamp's splitting constant
 
 
-def pack(setup: Any, e: float, kind: int, rtol: float, jam: float, un_zero: float, stop: float, max_phases: int,
-         max_steps: int) -> NDArray[np.float64]:
-    """The setup array S from the law's per-W setup (attributes named as in
-    :class:`mbimpact.laws.coulomb`'s ``_Setup``), its restitution and its tolerances.
-
-    Returns
-    -------
-    ndarray, shape (SETUP_SIZE,)
-    """
-    s = setup
-    return np.array([
-        s.d, s.tr, s.w11, s.w12, s.w13, s.w21, s.w22, s.w23, s.w31, s.w32, s.w33, s.ai11, s.ai12, s.ai22,
-        s.alpha_min, s.anorm, s.bnorm, s.g1, s.g2, s.stick_norm, 1.0 if s.can_stick else 0.0, s.mu, e, kind, rtol,
-        jam, un_zero, stop, max_phases, max_steps, 0.0, 0.0, 0.0, 2.0])
-
-
 # ---------------------------------------------------------------------- floats as CPython has them
 @njit(cache=True, error_model="numpy")
 def _add_square(x: float, csum: float, frac1: float, frac2: float, frac3: float
@@ -150,17 +144,26 @@ def py_hypot(x: float, y: float) -> float:
     big = b if b > a else a
     if big == 0.0:
         return big
-    max_e = math.frexp(big)[1]
-    if max_e < -1023:  # ldexp(1, −max_e) would overflow: CPython divides by the larger instead
-        csum, frac = 1.0, 0.0
-        for z in (a, b):
-            z = z / big
-            z = z * z
-            old = csum
-            csum += z
-            frac += (old - csum) + z
-        return big * math.sqrt(csum - 1.0 + frac)
-    scale = math.ldexp(1.0, -max_e)
+    field = (np.float64(big).view(np.int64) >> 52) & 0x7FF  # big's biased exponent: frexp's is field − 1022
+    normal = 1 <= field <= 2044
+    if normal:
+        # 2^−e and 2^e (e = field − 1022) from their bits, both normal floats: exact as ldexp is, without the
+        # calls to frexp and ldexp, and the last division a product (all on the critical path of a stage)
+        scale = float(np.int64((2045 - field) << 52).view(np.float64))
+        inv = float(np.int64((field + 1) << 52).view(np.float64))
+    else:  # big subnormal or ≥ 2¹⁰²²: CPython's own steps
+        max_e = math.frexp(big)[1]
+        if max_e < -1023:  # ldexp(1, −max_e) would overflow: CPython divides by the larger instead
+            csum, frac = 1.0, 0.0
+            for z in (a, b):
+                z = z / big
+                z = z * z
+                old = csum
+                csum += z
+                frac += (old - csum) + z
+            return big * math.sqrt(csum - 1.0 + frac)
+        scale = math.ldexp(1.0, -max_e)
+        inv = 0.0
     csum, frac1, frac2, frac3 = _add_square(a * scale, 1.0, 0.0, 0.0, 0.0)
     csum, frac1, frac2, frac3 = _add_square(b * scale, csum, frac1, frac2, frac3)
     h = math.sqrt(csum - 1.0 + (frac1 + frac2 + frac3))
@@ -180,7 +183,8 @@ def py_hypot(x: float, y: float) -> float:
     csum += sq
     frac3 += (old - csum) + sq
     sq = csum - 1.0 + (frac1 + frac2 + frac3)
-    return (h + sq / (2.0 * h)) / scale
+    # z / 2^−e and z · 2^e are the same correctly rounded number
+    return (h + sq / (2.0 * h)) * inv if normal else (h + sq / (2.0 * h)) / scale
 
 
 @njit(cache=True, error_model="numpy")
@@ -200,6 +204,66 @@ def _square(x: float, S: NDArray[np.float64]) -> float:
     """Python's ``x ** 2``: libm's pow(x, 2.0), which differs from x * x in the last bit about once in
     1400. The exponent is read from S at run time: a constant 2.0 would be folded into x * x."""
     return math.pow(x, S[TWO])
+
+
+# ---------------------------------------------------------------------- the setup
+@njit(cache=True, error_model="numpy")
+def _setup(w: tuple[float, ...], law: tuple[float, ...]) -> NDArray[np.float64]:
+    """The setup array S for W = ``w`` (the tuple of the module docstring) and the law tuple ``law``.
+
+    The arithmetic of :mod:`mbimpact.laws.coulomb`'s ``_setup``, operation for operation (a single
+    impact in floats and one through the kernels share their decisions and impulses to the last
+    bit). S[TR] is tr W whatever it is: the caller tells BAD_TRACE by it (the rest is then unset).
+    """
+    S = np.empty(SETUP_SIZE)
+    for i in range(LAW_SIZE):
+        S[i] = law[i]
+    S[RESLIP] = S[RS1] = S[RS2] = 0.0
+    S[TWO] = 2.0
+    d = w[0]
+    w11, w12, w13, w21, w22, w23, w31, w32, w33 = w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9]
+    S[D] = d
+    S[TR] = tr = w11 + w22 + w33 if d == 3.0 else w11 + w33 + 0.0
+    if not (tr > 0.0 and math.isfinite(tr)):
+        return S
+    cut, mu = S[CUT], S[MU]
+    w11, w13, w31, w33 = w11 / tr, w13 / tr, w31 / tr, w33 / tr
+    if d == 3.0:
+        w12, w21, w22, w23, w32 = w12 / tr, w21 / tr, w22 / tr, w23 / tr, w32 / tr
+    else:
+        w12 = w21 = w22 = w23 = w32 = 0.0
+    S[W11], S[W12], S[W13], S[W21], S[W22], S[W23] = w11, w12, w13, w21, w22, w23
+    S[W31], S[W32], S[W33] = w31, w32, w33
+    if d == 2.0:
+        S[ALPHA_MIN] = w11 if w11 > cut else 0.0
+        ai11, ai12, ai22 = (1.0 / w11 if w11 > cut else 0.0), 0.0, 0.0
+        S[ANORM] = abs(w11)
+        S[DET] = w11 * w33 - w13 * w31
+    else:
+        a11, a12, a22 = w11, w12, w22
+        m, half = 0.5 * (a11 + a22), 0.5 * (a11 - a22)
+        hi = m + py_hypot(half, a12)
+        det = a11 * a22 - a12 * a12
+        lo = _max(det / hi, 0.0) if hi > 0.0 else 0.0  # no cancellation in m − rad
+        S[ANORM] = hi
+        if lo > cut:
+            S[ALPHA_MIN] = lo
+            ai11, ai12, ai22 = a22 / det, -a12 / det, a11 / det
+        else:  # rank ≤ 1: W_tt⁺ = q qᵀ / α along the one eigenvector left
+            S[ALPHA_MIN] = 0.0
+            phi = 0.5 * math.atan2(2.0 * a12, a11 - a22)
+            q1, q2 = math.cos(phi), math.sin(phi)
+            inv = 1.0 / hi if hi > cut else 0.0
+            ai11, ai12, ai22 = q1 * q1 * inv, q1 * q2 * inv, q2 * q2 * inv
+        S[DET] = (w11 * (w22 * w33 - w23 * w23) - w12 * (w12 * w33 - w23 * w13)
+                  + w13 * (w12 * w23 - w22 * w13))
+    S[AI11], S[AI12], S[AI22] = ai11, ai12, ai22
+    g1, g2 = -(ai11 * w13 + ai12 * w23), -(ai12 * w13 + ai22 * w23)
+    S[G1], S[G2] = g1, g2
+    S[STICK_NORM] = stick_norm = math.sqrt(g1 * g1 + g2 * g2)
+    S[BNORM] = math.sqrt(w13 * w13 + w23 * w23)
+    S[CAN_STICK] = 1.0 if mu > 0.0 and stick_norm <= mu * (1.0 + 1e-12) else 0.0
+    return S
 
 
 # ---------------------------------------------------------------------- the setup's last part
@@ -549,7 +613,6 @@ def _snap(S: NDArray[np.float64], X: NDArray[np.float64], v1: float, v2: float, 
     δ (r + μ min(Δp, 2 r / |h'|)) ≤ rtol, Δp the length of that straight phase.
     """
     mu, rtol = S[MU], S[RTOL]
-    theta = math.atan2(v2, v1)
     # one Newton step first: far from any invariant direction, no need to find it
     a11, a12, a22 = S[W11], S[W12], S[W22]
     c, sn = v1 / r, v2 / r
@@ -558,6 +621,7 @@ def _snap(S: NDArray[np.float64], X: NDArray[np.float64], v1: float, v2: float, 
     h = abs(-sn * F1 + c * F2)
     if h * r > 10.0 * rtol * abs(slope) and h > 1e-15 * (S[BNORM] + mu * S[ANORM]):
         return False, 0.0, 0.0
+    theta = math.atan2(v2, v1)
     found, t, lam, dh, h0 = _fixed_point(S, theta)
     if not found:
         return False, 0.0, 0.0
@@ -602,55 +666,83 @@ def _rhs(t: float, d1: float, d2: float, ub1: float, ub2: float, ub3: float, S: 
 
 
 @njit(cache=True, error_model="numpy")
-def _step(S: NDArray[np.float64], t: float, y0: float, y1: float, y2: float, k0: float, k1: float, k2: float,
-          h: float, ub1: float, ub2: float, ub3: float, base1: float, base2: float, K: NDArray[np.float64]
+def _step(S: NDArray[np.float64], t: float, y0: float, y1: float, y2: float, k0_0: float, k1_0: float, k2_0: float,
+          h: float, ub1: float, ub2: float, ub3: float, base1: float, base2: float
           ) -> tuple[float, float, float, float]:
-    """One DOP853 step of the state y = (ΔP_t1, ΔP_t2, w) from (t, y) with f(t, y) = k: the new state
+    """One DOP853 step of the state y = (ΔP_t1, ΔP_t2, w) from (t, y) with f(t, y) = k_0: the new state
     and the error norm (≤ 1: accept), scaled on the impulses (P_b + ΔP_t, from the base impulse P_b).
-    ``K`` (3, 12) holds the stages. The work w does not feed back into f: its stages are f's third
-    component, and it is never an argument."""
-    # each weighted sum of stages adds the tableau's non-zero terms only, in its order (the sums
-    # of the unrolled float arithmetic this was first written as)
-    K[0, 0], K[1, 0], K[2, 0] = k0, k1, k2
-    for i in range(1, _NS):
-        s0 = 0.0
-        s1 = 0.0
-        for j in range(i):
-            a = _A[i, j]
-            if a != 0.0:
-                s0 += a * K[0, j]
-                s1 += a * K[1, j]
-        K[0, i], K[1, i], K[2, i] = _rhs(t + _C[i] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    The work w does not feed back into f: its stages are f's third component, and it is never an
+    argument.
+
+    Written out stage by stage (k0_i, k1_i, k2_i: the components of stage i), each weighted sum adding
+    the tableau's non-zero terms only, in its order: the stages stay in registers, where a loop over a
+    stage array took ~12 % longer (the sums are the same operations, to the last bit).
+    """
+    s0 = 0.0 + _A[1, 0] * k0_0
+    s1 = 0.0 + _A[1, 0] * k1_0
+    k0_1, k1_1, k2_1 = _rhs(t + _C[1] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[2, 0] * k0_0 + _A[2, 1] * k0_1
+    s1 = 0.0 + _A[2, 0] * k1_0 + _A[2, 1] * k1_1
+    k0_2, k1_2, k2_2 = _rhs(t + _C[2] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[3, 0] * k0_0 + _A[3, 2] * k0_2
+    s1 = 0.0 + _A[3, 0] * k1_0 + _A[3, 2] * k1_2
+    k0_3, k1_3, k2_3 = _rhs(t + _C[3] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[4, 0] * k0_0 + _A[4, 2] * k0_2 + _A[4, 3] * k0_3
+    s1 = 0.0 + _A[4, 0] * k1_0 + _A[4, 2] * k1_2 + _A[4, 3] * k1_3
+    k0_4, k1_4, k2_4 = _rhs(t + _C[4] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[5, 0] * k0_0 + _A[5, 3] * k0_3 + _A[5, 4] * k0_4
+    s1 = 0.0 + _A[5, 0] * k1_0 + _A[5, 3] * k1_3 + _A[5, 4] * k1_4
+    k0_5, k1_5, k2_5 = _rhs(t + _C[5] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[6, 0] * k0_0 + _A[6, 3] * k0_3 + _A[6, 4] * k0_4 + _A[6, 5] * k0_5
+    s1 = 0.0 + _A[6, 0] * k1_0 + _A[6, 3] * k1_3 + _A[6, 4] * k1_4 + _A[6, 5] * k1_5
+    k0_6, k1_6, k2_6 = _rhs(t + _C[6] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[7, 0] * k0_0 + _A[7, 3] * k0_3 + _A[7, 4] * k0_4 + _A[7, 5] * k0_5 + _A[7, 6] * k0_6
+    s1 = 0.0 + _A[7, 0] * k1_0 + _A[7, 3] * k1_3 + _A[7, 4] * k1_4 + _A[7, 5] * k1_5 + _A[7, 6] * k1_6
+    k0_7, k1_7, k2_7 = _rhs(t + _C[7] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = 0.0 + _A[8, 0] * k0_0 + _A[8, 3] * k0_3 + _A[8, 4] * k0_4 + _A[8, 5] * k0_5 + _A[8, 6] * k0_6 + _A[8, 7] * k0_7
+    s1 = 0.0 + _A[8, 0] * k1_0 + _A[8, 3] * k1_3 + _A[8, 4] * k1_4 + _A[8, 5] * k1_5 + _A[8, 6] * k1_6 + _A[8, 7] * k1_7
+    k0_8, k1_8, k2_8 = _rhs(t + _C[8] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = (0.0 + _A[9, 0] * k0_0 + _A[9, 3] * k0_3 + _A[9, 4] * k0_4 + _A[9, 5] * k0_5 + _A[9, 6] * k0_6
+          + _A[9, 7] * k0_7 + _A[9, 8] * k0_8)
+    s1 = (0.0 + _A[9, 0] * k1_0 + _A[9, 3] * k1_3 + _A[9, 4] * k1_4 + _A[9, 5] * k1_5 + _A[9, 6] * k1_6
+          + _A[9, 7] * k1_7 + _A[9, 8] * k1_8)
+    k0_9, k1_9, k2_9 = _rhs(t + _C[9] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = (0.0 + _A[10, 0] * k0_0 + _A[10, 3] * k0_3 + _A[10, 4] * k0_4 + _A[10, 5] * k0_5 + _A[10, 6] * k0_6
+          + _A[10, 7] * k0_7 + _A[10, 8] * k0_8 + _A[10, 9] * k0_9)
+    s1 = (0.0 + _A[10, 0] * k1_0 + _A[10, 3] * k1_3 + _A[10, 4] * k1_4 + _A[10, 5] * k1_5 + _A[10, 6] * k1_6
+          + _A[10, 7] * k1_7 + _A[10, 8] * k1_8 + _A[10, 9] * k1_9)
+    k0_10, k1_10, k2_10 = _rhs(t + _C[10] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    s0 = (0.0 + _A[11, 0] * k0_0 + _A[11, 3] * k0_3 + _A[11, 4] * k0_4 + _A[11, 5] * k0_5 + _A[11, 6] * k0_6
+          + _A[11, 7] * k0_7 + _A[11, 8] * k0_8 + _A[11, 9] * k0_9 + _A[11, 10] * k0_10)
+    s1 = (0.0 + _A[11, 0] * k1_0 + _A[11, 3] * k1_3 + _A[11, 4] * k1_4 + _A[11, 5] * k1_5 + _A[11, 6] * k1_6
+          + _A[11, 7] * k1_7 + _A[11, 8] * k1_8 + _A[11, 9] * k1_9 + _A[11, 10] * k1_10)
+    k0_11, k1_11, k2_11 = _rhs(t + _C[11] * h, y0 + h * s0, y1 + h * s1, ub1, ub2, ub3, S)
+    sb0 = (0.0 + _B[0] * k0_0 + _B[5] * k0_5 + _B[6] * k0_6 + _B[7] * k0_7 + _B[8] * k0_8 + _B[9] * k0_9
+           + _B[10] * k0_10 + _B[11] * k0_11)
+    sb1 = (0.0 + _B[0] * k1_0 + _B[5] * k1_5 + _B[6] * k1_6 + _B[7] * k1_7 + _B[8] * k1_8 + _B[9] * k1_9
+           + _B[10] * k1_10 + _B[11] * k1_11)
+    sb2 = (0.0 + _B[0] * k2_0 + _B[5] * k2_5 + _B[6] * k2_6 + _B[7] * k2_7 + _B[8] * k2_8 + _B[9] * k2_9
+           + _B[10] * k2_10 + _B[11] * k2_11)
+    s50 = (0.0 + _E5[0] * k0_0 + _E5[5] * k0_5 + _E5[6] * k0_6 + _E5[7] * k0_7 + _E5[8] * k0_8 + _E5[9] * k0_9
+           + _E5[10] * k0_10 + _E5[11] * k0_11)
+    s51 = (0.0 + _E5[0] * k1_0 + _E5[5] * k1_5 + _E5[6] * k1_6 + _E5[7] * k1_7 + _E5[8] * k1_8 + _E5[9] * k1_9
+           + _E5[10] * k1_10 + _E5[11] * k1_11)
+    s52 = (0.0 + _E5[0] * k2_0 + _E5[5] * k2_5 + _E5[6] * k2_6 + _E5[7] * k2_7 + _E5[8] * k2_8 + _E5[9] * k2_9
+           + _E5[10] * k2_10 + _E5[11] * k2_11)
+    s30 = (0.0 + _E3[0] * k0_0 + _E3[5] * k0_5 + _E3[6] * k0_6 + _E3[7] * k0_7 + _E3[8] * k0_8 + _E3[9] * k0_9
+           + _E3[10] * k0_10 + _E3[11] * k0_11)
+    s31 = (0.0 + _E3[0] * k1_0 + _E3[5] * k1_5 + _E3[6] * k1_6 + _E3[7] * k1_7 + _E3[8] * k1_8 + _E3[9] * k1_9
+           + _E3[10] * k1_10 + _E3[11] * k1_11)
+    s32 = (0.0 + _E3[0] * k2_0 + _E3[5] * k2_5 + _E3[6] * k2_6 + _E3[7] * k2_7 + _E3[8] * k2_8 + _E3[9] * k2_9
+           + _E3[10] * k2_10 + _E3[11] * k2_11)
     rtol = S[RTOL]
     atol = 0.1 * rtol
-    n5 = n3 = 0.0
-    new0 = new1 = new2 = 0.0
-    for c in range(3):
-        sb = s5 = s3 = 0.0
-        for j in range(_NS):
-            kj = K[c, j]
-            if _B[j] != 0.0:
-                sb += _B[j] * kj
-            if _E5[j] != 0.0:
-                s5 += _E5[j] * kj
-            if _E3[j] != 0.0:
-                s3 += _E3[j] * kj
-        if c == 0:
-            base, old = base1, y0
-        elif c == 1:
-            base, old = base2, y1
-        else:
-            base, old = 0.0, y2
-        nw = old + h * sb
-        sc = atol + rtol * _max(abs(base + old), abs(base + nw))
-        n5 += _square(s5 / sc, S)
-        n3 += _square(s3 / sc, S)
-        if c == 0:
-            new0 = nw
-        elif c == 1:
-            new1 = nw
-        else:
-            new2 = nw
+    new0, new1, new2 = y0 + h * sb0, y1 + h * sb1, y2 + h * sb2
+    sc0 = atol + rtol * _max(abs(base1 + y0), abs(base1 + new0))
+    sc1 = atol + rtol * _max(abs(base2 + y1), abs(base2 + new1))
+    sc2 = atol + rtol * _max(abs(0.0 + y2), abs(0.0 + new2))
+    n5 = 0.0 + _square(s50 / sc0, S) + _square(s51 / sc1, S) + _square(s52 / sc2, S)
+    n3 = 0.0 + _square(s30 / sc0, S) + _square(s31 / sc1, S) + _square(s32 / sc2, S)
     if n5 == 0.0 and n3 == 0.0:
         return new0, new1, new2, 0.0
     return new0, new1, new2, abs(h) * n5 / math.sqrt((n5 + 0.01 * n3) * 3.0)
@@ -675,13 +767,16 @@ def _event(S: NDArray[np.float64], X: NDArray[np.float64], t: float, y0: float, 
 @njit(cache=True, error_model="numpy")
 def _locate(S: NDArray[np.float64], X: NDArray[np.float64], p: float, y0: float, y1: float, y2: float, k0: float,
             k1: float, k2: float, h: float, g0: float, dg0: float, g1: float, dg1: float, origin: float, ub1: float,
-            ub2: float, ub3: float, base1: float, base2: float, wb: float, K: NDArray[np.float64]
-            ) -> float:
-    """The step length τ ∈ (0, h] at which the event function crosses 0.
+            ub2: float, ub3: float, base1: float, base2: float, wb: float
+            ) -> tuple[float, float, float, float, float, float, float]:
+    """The step length τ ∈ (0, h] at which the event function crosses 0, with the state there.
 
     A cubic Hermite guess from both ends (the dense output), then Newton on τ with each g(τ) from a
     full step of length τ, bracketed by bisection, down to the rounding of the normal impulse
     origin + p + τ (``p`` is counted from ``origin``).
+
+    Returns (τ, y, f(p + τ, y)) with y the state after the full step of length τ, the one taken here
+    last (the caller need not take it again); NaN when τ = h, a step the caller has taken itself.
     """
     m0, m1 = dg0 * h, dg1 * h
     t = g0 / (g0 - g1)
@@ -695,16 +790,18 @@ def _locate(S: NDArray[np.float64], X: NDArray[np.float64], p: float, y0: float,
             break
         t = nt
     lo, hi = 0.0, h  # g(lo) < 0 <= g(hi)
+    at_hi = (math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
     tau = t * h
     for _ in range(60):
         if not lo < tau < hi:
             tau = 0.5 * (lo + hi)
-        n0, n1, n2, _err = _step(S, p, y0, y1, y2, k0, k1, k2, tau, ub1, ub2, ub3, base1, base2, K)
+        n0, n1, n2, _err = _step(S, p, y0, y1, y2, k0, k1, k2, tau, ub1, ub2, ub3, base1, base2)
         X[STEPS] += 1.0
-        f0, f1, _f2 = _rhs(p + tau, n0, n1, ub1, ub2, ub3, S)
+        f0, f1, f2 = _rhs(p + tau, n0, n1, ub1, ub2, ub3, S)
         g, dg = _event(S, X, p + tau, n0, n1, n2, f0, f1, ub3, wb)
         if g >= 0.0:
             hi = tau
+            at_hi = (n0, n1, n2, f0, f1, f2)
         else:
             lo = tau
         ulp = 4e-16 * (origin + p + hi)
@@ -716,12 +813,11 @@ def _locate(S: NDArray[np.float64], X: NDArray[np.float64], p: float, y0: float,
                 break  # converged from above: hi = tau
             nxt = tau + ulp  # converged just below the root: step past it
         tau = nxt
-    return hi
+    return hi, at_hi[0], at_hi[1], at_hi[2], at_hi[3], at_hi[4], at_hi[5]
 
 
 @njit(cache=True, error_model="numpy")
-def _integrate(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.float64]
-               ) -> tuple[int, bool, int, bool, float, float]:
+def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, bool, int, bool, float, float]:
     """Integrate du_t/dp = b − μ W_tt û_t by DOP853 until the slip settles, stops or the impact ends.
 
     Returns (status, impact ended, next mode, straight direction found, s₁, s₂).
@@ -768,7 +864,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.flo
             if end <= 0.0:
                 return 0, True, SLIP, False, 0.0, 0.0
             h = _min(h, end)
-        n0, n1, n2, err = _step(S, t, y0, y1, y2, k0, k1, k2, h, ub1, ub2, ub3, Pb1, Pb2, K)
+        n0, n1, n2, err = _step(S, t, y0, y1, y2, k0, k1, k2, h, ub1, ub2, ub3, Pb1, Pb2)
         X[STEPS] += 1.0
         t_new = t + h
         w1 = ub1 + a11 * n0 + a12 * n1 + b1 * t_new
@@ -785,11 +881,11 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.flo
         g1, dg1 = _event(S, X, t_new, n0, n1, n2, f0, f1, ub3, wb)
         ended = end == h
         if g1 >= 0.0 and g0 < 0.0:
-            tau = _locate(S, X, t, y0, y1, y2, k0, k1, k2, h, g0, dg0, g1, dg1, pb, ub1, ub2, ub3, Pb1, Pb2, wb, K)
-            if tau < h:
+            tau, m0, m1, m2, q0, q1, q2 = _locate(S, X, t, y0, y1, y2, k0, k1, k2, h, g0, dg0, g1, dg1, pb, ub1,
+                                                  ub2, ub3, Pb1, Pb2, wb)
+            if tau < h:  # the state at t + τ: the full step from t that _locate took last (the same floats)
                 t_new = t + tau
-                n0, n1, n2, _err = _step(S, t, y0, y1, y2, k0, k1, k2, tau, ub1, ub2, ub3, Pb1, Pb2, K)
-                f0, f1, f2 = _rhs(t_new, n0, n1, ub1, ub2, ub3, S)
+                n0, n1, n2, f0, f1, f2 = m0, m1, m2, q0, q1, q2
             X[P], X[PT1], X[PT2], X[WK] = pb + t_new, Pb1 + n0, Pb2 + n1, wb + n2
             if _end_stage(S, X):
                 return 0, True, SLIP, False, 0.0, 0.0
@@ -826,8 +922,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.flo
 
 
 @njit(cache=True, error_model="numpy")
-def _turning_slip(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.float64]
-                  ) -> tuple[int, bool, int, bool, float, float]:
+def _turning_slip(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, bool, int, bool, float, float]:
     """A 3-D slip whose direction may turn: closed forms where possible, else integrate.
 
     Returns (status, impact ended, next mode, straight direction found, s₁, s₂).
@@ -849,12 +944,12 @@ def _turning_slip(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.
     found, s1, s2 = _snap(S, X, v1, v2, r)
     if found:
         return 0, False, SLIP, True, s1, s2
-    return _integrate(S, X, K)
+    return _integrate(S, X)
 
 
 # ---------------------------------------------------------------------- one impact, many
 @njit(cache=True, error_model="numpy")
-def _run(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.float64]) -> int:
+def _run(S: NDArray[np.float64], X: NDArray[np.float64]) -> int:
     """One impact from u₋ = X[U1, U2, UN0]: the impulse into X[PT1], X[PT2], X[P] (for W / tr W) and
     the integration steps into X[STEPS]; returns the status."""
     X[P] = X[PT1] = X[PT2] = X[WK] = X[PC] = X[WC] = X[STEPS] = 0.0
@@ -875,7 +970,7 @@ def _run(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.float64])
         mode = SLIP  # not straight: a 3-D slip that may turn
     for _ in range(int(S[MAX_PHASES])):
         if mode == SLIP and not straight:
-            status, done, mode, straight, d1, d2 = _turning_slip(S, X, K)
+            status, done, mode, straight, d1, d2 = _turning_slip(S, X)
             if status or done:
                 return status
             continue
@@ -889,45 +984,70 @@ def _run(S: NDArray[np.float64], X: NDArray[np.float64], K: NDArray[np.float64])
 
 
 @njit(cache=True, error_model="numpy")
-def impact_rows(S: NDArray[np.float64], U: NDArray[np.float64], out: NDArray[np.float64], steps: NDArray[np.int64],
-                info: NDArray[np.float64]) -> int:
-    """Impacts from the unit velocities ``U`` (B, d), local frame, W / tr W as in ``S``.
+def impact_rows(w: tuple[float, ...], law: tuple[float, ...], U: NDArray[np.float64], out: NDArray[np.float64],
+                error: NDArray[np.float64]) -> tuple[int, int, int, float, float, float, float]:
+    """Impacts from the unit velocities ``U`` (B, d), local frame, at the Delassus matrix ``w``.
 
-    Writes the impulses into ``out`` (B, d) and the integration steps of each row into ``steps``
-    (B,). Returns −1, or the first row that failed with its status in ``info[0]`` and its numbers
-    in ``info[1:5]`` (the rows after it are not computed).
+    Writes the impulses into ``out`` (B, d) (for W itself: the core's, for W / tr W, divided by tr W)
+    and the error estimates into ``error`` (B,): rtol where a turning slip was integrated, else 0.
+    Returns (row, status, the most integration steps a row took, the four numbers of the failure's
+    message): row −1 when every row was computed, else the first that failed (the rows after it are
+    not computed); BAD_TRACE (tr W) comes before any row.
     """
+    S = _setup(w, law)
+    tr = S[TR]
+    if not (tr > 0.0 and math.isfinite(tr)):
+        return 0, BAD_TRACE, 0, tr, 0.0, 0.0, 0.0
     d = U.shape[1]
     X = np.zeros(ROW_SIZE)
-    K = np.empty((3, _NS))
+    most = 0
     for i in range(U.shape[0]):
         X[U1] = U[i, 0]
         X[U2] = U[i, 1] if d == 3 else 0.0
         X[UN0] = U[i, d - 1]
-        status = _run(S, X, K)
+        status = _run(S, X)
         if status:
-            info[0] = status
-            for j in range(4):
-                info[1 + j] = X[INFO + j]
-            return i
-        out[i, 0] = X[PT1]
+            return i, status, most, X[INFO], X[INFO + 1], X[INFO + 2], X[INFO + 3]
+        out[i, 0] = X[PT1] / tr
         if d == 3:
-            out[i, 1] = X[PT2]
-        out[i, d - 1] = X[P]
-        steps[i] = int(X[STEPS])
-    return -1
+            out[i, 1] = X[PT2] / tr
+        out[i, d - 1] = X[P] / tr
+        steps = int(X[STEPS])
+        error[i] = S[RTOL] if steps > 0 else 0.0
+        most = max(most, steps)
+    return -1, 0, most, 0.0, 0.0, 0.0, 0.0
 
 
 @njit(cache=True, error_model="numpy")
-def impact_one(S: NDArray[np.float64], u1: float, u2: float, un: float
-               ) -> tuple[int, float, float, float, int, float, float, float, float]:
-    """One impact from the unit velocity (u1, u2, un) (u2 = 0 for d = 2), local frame, W / tr W:
-    (status, P_t1, P_t2, p_n, integration steps, the failure's four numbers)."""
+def impact_one(w: tuple[float, ...], law: tuple[float, ...], x1: float, x2: float, xn: float
+               ) -> tuple[int, float, float, float, int, float, float, float, float, float, float]:
+    """A whole single impact in one call: from the contact velocity (x1, x2, xn) (x2 = 0 when d = 2),
+    local frame, and the Delassus matrix ``w``, what :meth:`mbimpact.CoulombLaw.apply_metric` needs.
+
+    Returns (status, P_t1, P_t2, p_n, integration steps, |u| / tr W, |u|, the failure's four numbers):
+    the impulse of the unit velocity u / |u| at W / tr W (the impact's is |u| / tr W times it). Before
+    any impact, status BAD_TRACE (tr W in the first number), or OUT_OF_REACH for what the caller's general
+    route names or treats: n⁰ᵀWn⁰ ≈ 0 (``ImpactLaw.impulses``' test) or det(W / tr W) ≤ 1e-12, a
+    rank-deficient W (``ContactMetric.range_projector``'s).
+    """
+    S = _setup(w, law)
+    tr = S[TR]
+    if not (tr > 0.0 and math.isfinite(tr)):
+        return BAD_TRACE, 0.0, 0.0, 0.0, 0, 0.0, 0.0, tr, 0.0, 0.0, 0.0
+    if not S[W33] > S[DEGENERATE] or not S[DET] > 1e-12:
+        return OUT_OF_REACH, 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    # the unit velocity, scaled first (no over- or underflow); the squares by libm's pow, as Python's **
+    if S[D] == 3.0:
+        big = _max(_max(abs(x1), abs(x2)), abs(xn))
+        speed = big * math.sqrt(_square(x1 / big, S) + _square(x2 / big, S) + _square(xn / big, S))
+    else:
+        big = _max(abs(x1), abs(xn))
+        speed = big * math.sqrt(_square(x1 / big, S) + _square(xn / big, S))
     X = np.zeros(ROW_SIZE)
-    K = np.empty((3, _NS))
-    X[U1], X[U2], X[UN0] = u1, u2, un
-    status = _run(S, X, K)
-    return status, X[PT1], X[PT2], X[P], int(X[STEPS]), X[INFO], X[INFO + 1], X[INFO + 2], X[INFO + 3]
+    X[U1], X[U2], X[UN0] = x1 / speed, x2 / speed, xn / speed
+    status = _run(S, X)
+    return (status, X[PT1], X[PT2], X[P], int(X[STEPS]), speed / tr, speed, X[INFO], X[INFO + 1], X[INFO + 2],
+            X[INFO + 3])
 
 
 def jit_seconds() -> float:
@@ -936,11 +1056,9 @@ def jit_seconds() -> float:
     to this file), or compiled when that cache is missing or stale. The first call pays it; later
     calls return near 0."""
     start = time.perf_counter()
-    third = 1.0 / 3.0  # W / tr W = I / 3, μ = ½, Stronge's e = ½: a slip straight to its end
-    setup = SimpleNamespace(d=3, tr=1.0, w11=third, w12=0.0, w13=0.0, w21=0.0, w22=third, w23=0.0, w31=0.0, w32=0.0,
-                            w33=third, ai11=3.0, ai12=0.0, ai22=3.0, alpha_min=third, anorm=third, bnorm=0.0, g1=0.0,
-                            g2=0.0, stick_norm=0.0, can_stick=True, mu=0.5)
-    S = pack(setup, 0.5, ENERGETIC, 1e-10, 1e-14, 1e-12, 1e-2, 64, 100)
-    impact_rows(S, np.array([[0.6, 0.0, -0.8]]), np.empty((1, 3)), np.zeros(1, dtype=np.int64), np.zeros(5))
-    impact_one(S, 0.6, 0.0, -0.8)
+    third = 1.0 / 3.0  # W = I / 3, μ = ½, Stronge's e = ½: a slip straight to its end
+    w = (3.0, third, 0.0, 0.0, 0.0, third, 0.0, 0.0, 0.0, third)
+    law = (0.5, 0.5, float(ENERGETIC), 1e-10, 1e-14, 1e-12, 1e-2, 64.0, 100.0, 1e-12, 1e-14)
+    impact_rows(w, law, np.array([[0.6, 0.0, -0.8]]), np.empty((1, 3)), np.empty(1))
+    impact_one(w, law, 0.6, 0.0, -0.8)
     return time.perf_counter() - start

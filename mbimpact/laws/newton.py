@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -11,21 +12,31 @@ from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
 from ..metric.basis import local_basis
 from ..metric.delassus import ContactMetric
-from ..results.impact import BatchResult, ContactImpulses, ImpactResult
+from ..results.impact import BatchResult, ContactImpulses, ImpactResult, NormalImpactResult
 from .base import ImpactLaw
 from .restitution import restitution_from
+
+if TYPE_CHECKING:
+    from ..mechanism.mechanism import Mechanism
 
 __all__ = ["NewtonLaw"]
 
 _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and products of two cannot overflow
+# Magnitudes below which the route through Pinocchio cannot overflow: squares and products of three
+# stay below 1e240, and sums over a few hundred coordinates below the float range
+_MODERATE = 1e80
 
 
 class NewtonLaw(ImpactLaw):
     """Frictionless Newton impact (1.2): Δv = −(1+e)(N, v₋) N / |N|².
 
-    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)``. The reported
-    contact impulse is P = P_n n⁰ whatever the rank of J: the frictionless impulse is normal, and
-    Δv = P_n A⁻¹Jᵀn⁰ needs no projection (other laws report the minimum-norm P of a rank-deficient J).
+    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)``; on a mechanism
+    (:func:`mbimpact.impact`) it *is* that call (:meth:`apply_mechanism`), and the result
+    (:class:`~mbimpact.results.NormalImpactResult`) computes Δv, P and u± on first access. On arrays
+    (:meth:`apply`, :meth:`apply_batch`) the same closed form runs through the Cholesky factor of A.
+    The reported contact impulse is P = P_n n⁰ whatever the rank of J: the frictionless impulse is
+    normal, and Δv = P_n A⁻¹Jᵀn⁰ needs no projection (other laws report the minimum-norm P of a
+    rank-deficient J).
 
     Parameters
     ----------
@@ -45,6 +56,32 @@ class NewtonLaw(ImpactLaw):
         P = np.zeros_like(U)
         P[:, -1] = -(1.0 + self.e) * U[:, -1] / W[-1, -1]
         return ContactImpulses(P, np.zeros(len(U)))
+
+    def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
+                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+        """Pinocchio's own impact: ``pin.impulseDynamics`` on the normal row n⁰ᵀJ
+        (:meth:`Mechanism.normal_impact`), with Δv, P and u± completed on demand
+        (:class:`~mbimpact.results.NormalImpactResult`).
+
+        The degenerate cases (no approach, n⁰ out of reach, A(q) not positive definite) and extreme
+        magnitudes take the general route, which names them or treats them.
+        """
+        n0 = R[:, -1]
+        # squares in Python floats (they never warn: an overflow is inf): below _MODERATE², no product
+        # of the route can overflow, and the route needs no numpy error state
+        flat = J.ravel().tolist()
+        jj = sum([x * x for x in flat])
+        if not (jj < _MODERATE * _MODERATE and sum([x * x for x in v.tolist()]) < _MODERATE * _MODERATE):
+            return super().apply_mechanism(mech, q, v, J, R)
+        jn = n0.dot(J)
+        un = float(jn.dot(v))
+        if not (un < 0.0 and float(jn.dot(jn)) > 1e-8 * jj):  # no approach, or n⁰ out of reach
+            return super().apply_mechanism(mech, q, v, J, R)
+        A, v_plus, Pn, factor = mech.normal_impact(q, v, jn, self.e)
+        # |Δv| ≤ |v₊| + |v|: every field completed later stays far from the float range
+        if not (factor.valid and 0.0 < Pn < _MODERATE and float(v_plus.dot(v_plus)) < _MODERATE * _MODERATE):
+            return super().apply_mechanism(mech, q, v, J, R)
+        return NormalImpactResult(v.copy(), v_plus, Pn, n0, A, J, self, factor.solve)
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with

@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..averaging import AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, Fixed, Graded
+from ..averaging import AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, Fixed, Graded, SlopePass
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
@@ -161,8 +161,8 @@ class RoughLaw(ImpactLaw):
     peak sharply where mᵀWm is smallest; ``"auto"`` then grades the rule towards
     the peaks by sinh maps (``"graded"``), converging with tens of nodes where a
     uniform rule needs 10⁵. Single velocities on a :class:`Cone` take the first
-    adaptive pass as one product of cached harmonics (``"cone-pair"``); batches
-    at one W use closed-form expansions (``"ring"``, ``"tilt-table"``).
+    adaptive pass in one compiled call (``"cone-pair"``; numba, loaded on first
+    use); batches at one W use closed-form expansions (``"ring"``, ``"tilt-table"``).
     """
 
     #: Upper bounds that keep a typo from turning into hours of work.
@@ -293,7 +293,9 @@ class RoughLaw(ImpactLaw):
         return self.facet.homogeneous and type(self).impulses is RoughLaw.impulses
 
     def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
-        return self.contact_impulses_at(W, U, None)
+        # contact_impulses_at(W, U, None) without its layers: a single impact's hot path
+        out = self._average_to(self.spec, W, U)[0]
+        return self._repeated(W, U, out) if self.repeat else out
 
     def contact_impulses_at(self, W: NDArray[np.float64], U: NDArray[np.float64],
                             speed: NDArray[np.float64] | None) -> ContactImpulses:
@@ -543,7 +545,7 @@ def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
 
 
 # the methods whose ``nodes`` count a quadrature rule's nodes a piece (Roughness.rule_size gives its facets)
-_REFINED = (Fixed, Adaptive, Graded, ConePair)
+_REFINED = (Fixed, Adaptive, Graded, ConePair, SlopePass)
 
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}

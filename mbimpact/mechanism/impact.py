@@ -14,7 +14,6 @@ from numpy.typing import ArrayLike, NDArray
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array
 from ..errors import ParameterError, ShapeError
-from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ImpactResult
 from ..laws.base import ImpactLaw
 from .contact import Contact
@@ -66,7 +65,7 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
         _check_parts(mech, contact, law)
     q, v = mech.check_state(q, v)
     J, R = contact.jacobian(mech, q, law.dim or 3)
-    return law.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
+    return law.apply_mechanism(mech, q, v, J, R)
 
 
 def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, law: ImpactLaw) -> BatchResult:

@@ -57,21 +57,39 @@ class MassFactor:
         # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
         self.__dict__.update(mechanism=mechanism, q=q, token=token, valid=valid)
 
-    def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
-        """A⁻¹ b for b of shape (nv,) or (nv, k)."""
+    def _data(self) -> Any:
+        """This thread's workspace, holding this factor (re-factorised at ``q`` if it was reused)."""
         mech = self.mechanism
         local = mech.workspace()
         if getattr(local, "token", None) != self.token:
             pin.crba(mech.model, local.data, self.q)
             pin.cholesky.decompose(mech.model, local.data)
             local.token = self.token
+        return local.data
+
+    def arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The factor A(q) = U D Uᵀ: U (nv, nv) unit upper triangular and the pivots D (nv,).
+
+        Views of the workspace's memory, valid until the next call on this mechanism in this
+        thread: read them at once (:func:`mbimpact.metric.kernels.delassus` does).
+        """
+        data = self._data()
+        return data.U, data.D
+
+    def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A⁻¹ b for b of shape (nv,) or (nv, k)."""
+        mech = self.mechanism
+        local = mech.workspace()
+        if getattr(local, "token", None) != self.token:
+            self._data()
         if b.ndim == 1:
             return pin.cholesky.solve(mech.model, local.data, b)
         if not b.shape[1]:
             return np.zeros(b.shape)
-        # one solve per column, assembled in one copy (what np.column_stack does, without its overhead)
-        model, data, solve, cols = mech.model, local.data, pin.cholesky.solve, b.T
-        return np.array([solve(model, data, cols[i]) for i in range(len(cols))]).T.copy()
+        # one solve per column, assembled in one copy and returned as its transposed view (Fortran order:
+        # every consumer multiplies it, which BLAS does in either order, and a C copy costs more than that)
+        model, data, solve = mech.model, local.data, pin.cholesky.solve
+        return np.array([solve(model, data, col) for col in b.T]).T
 
 
 @dataclass(frozen=True, eq=False)
@@ -320,6 +338,33 @@ class Mechanism:
         D = data.D.tolist()
         valid = min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
         return A, MassFactor(self, q.copy(), token, valid)
+
+    def normal_impact(self, q: NDArray[np.float64], v: NDArray[np.float64], jn: NDArray[np.float64], e: float
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, MassFactor]:
+        """Pinocchio's frictionless impact (1.2) along one constraint row, for a validated state.
+
+        ``pin.impulseDynamics`` with the single row ``jn`` (nv,) = n⁰ᵀJ and restitution ``e``: one
+        call does the factorisation of A(q), n⁰ᵀWn⁰ and the impulse.
+
+        Returns
+        -------
+        A : ndarray, shape (nv, nv)
+            A(q) from ``pin.crba``, full symmetric.
+        v_plus : ndarray, shape (nv,)
+            Post-impact velocity.
+        P_n : float
+            Normal impulse (non-finite when A(q) or n⁰ᵀWn⁰ is singular: check ``factor.valid``).
+        factor : MassFactor
+            The factor of A(q) the impact used, for further solves.
+        """
+        local = self.workspace()
+        model, data = self.model, local.data
+        A = pin.crba(model, data, q).copy()  # symmetric; impulseDynamics' own crba fills one triangle only
+        v_plus = pin.impulseDynamics(model, data, v, jn[None, :], e, 0.0)  # factorises A, as factorise() does
+        local.token = token = next(_TOKENS)
+        D = data.D.tolist()
+        valid = min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
+        return A, v_plus, float(data.impulse_c[0]), MassFactor(self, q.copy(), token, valid)
 
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""

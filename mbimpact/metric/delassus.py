@@ -15,51 +15,29 @@ import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.compiled import KernelModule
+from ..common.lazy import lazy
 from ..common.validation import as_array
 from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 
 if TYPE_CHECKING:
     from ..mechanism.mechanism import Mechanism
 
-__all__ = ["ContactMetric", "spread_bound", "eigen_ratio"]
+__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "KERNELS"]
+
+#: The compiled core of :meth:`ContactMetric.from_mechanism` (:mod:`mbimpact.metric.kernels`).
+KERNELS = KernelModule("mbimpact.metric.kernels")
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9
 
 # The largest float: a Delassus matrix, or a bound on it, beyond it has overflowed.
 _FMAX = sys.float_info.max
-
-_T = TypeVar("_T")
-
-
-class _lazy(Generic[_T]):  # noqa: N801 — used as a decorator, like functools.cached_property
-    """``functools.cached_property`` without its lock (Python 3.11 takes one on every first access,
-    which costs a single impact more than the product it caches): computed on first access, then
-    stored in the instance ``__dict__``, which shadows this non-data descriptor from then on."""
-
-    def __init__(self, fn: Callable[[Any], _T]) -> None:
-        self.fn, self.name, self.__doc__ = fn, fn.__name__, fn.__doc__
-
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
-
-    @overload
-    def __get__(self, obj: None, owner: type | None = None) -> _lazy[_T]: ...
-
-    @overload
-    def __get__(self, obj: object, owner: type | None = None) -> _T: ...
-
-    def __get__(self, obj: object | None, owner: type | None = None) -> _lazy[_T] | _T:
-        if obj is None:
-            return self
-        value = obj.__dict__[self.name] = self.fn(obj)
-        return value
-
 
 @dataclass(frozen=True, eq=False)
 class ContactMetric:
@@ -194,49 +172,59 @@ class ContactMetric:
             )
         A.setflags(write=False)
         J.setflags(write=False)
-        return cls(A, J, factor.solve)
+        metric = cls(A, J, factor.solve)
+        # A⁻¹Jᵀ and W in one compiled call on Pinocchio's factor (what d + 2 Python-level calls cost
+        # a single impact several times over); an overflow leaves them to the lazy route, which names it
+        U, D = factor.arrays()
+        Yt, W, finite = KERNELS.get().delassus(U, D, J if J.flags.c_contiguous else np.ascontiguousarray(J))
+        if finite:
+            Yt.setflags(write=False)
+            W.setflags(write=False)
+            metric.__dict__.update(AinvJt=Yt.T, W=W)
+        return metric
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """A⁻¹ b for b of shape (n,) or (n, k)."""
         return self.solver(b)
 
-    @_lazy
+    @lazy
     def AinvJt(self) -> NDArray[np.float64]:  # noqa: N802 — the paper's notation
         out = self.solver(self.J.T)  # Jᵀ as a view: its columns are the contiguous rows of J
         out.setflags(write=False)
         return out
 
-    @_lazy
+    @lazy
     def W(self) -> NDArray[np.float64]:  # noqa: N802
         # J A⁻¹ Jᵀ of a finite J and A overflows for a large J or a small (or ill-conditioned) A. In floats
         # (they never warn), |W_ij| ≤ n max|J| max|A⁻¹Jᵀ|: below _FMAX / 18 the product cannot overflow
         # and the sum of the |W_ij| stays below half the largest float (cheaper than numpy's errstate)
         Y = self.AinvJt
-        bound = len(Y) * max(map(abs, self.J.ravel().tolist())) * max(map(abs, Y.ravel().tolist()))
+        bound = len(Y) * max(map(abs, self.J.ravel().tolist())) * max(map(abs, Y.T.ravel().tolist()))
         if bound < _FMAX / 18.0:
-            W = self.J.dot(Y).tolist()
+            W = self.J.dot(Y)
         else:  # computed without numpy's RuntimeWarning, then named
             with np.errstate(over="ignore", invalid="ignore"):
-                W = self.J.dot(Y).tolist()
-        # a NaN or inf entry makes the sum non-finite, and a sum of |W_ij| below half the largest float
-        # bounds W_ij + W_ji below, and every entry of Rᵀ W R, n⁰ᵀ W n⁰ and tr W that the laws compute
-        if not bound < _FMAX / 18.0 and not sum([abs(x) for row in W for x in row]) < 0.5 * _FMAX:
-            raise NonFiniteError(
-                f"the Delassus matrix W = J A⁻¹ Jᵀ overflows (max |J| = {float(np.max(np.abs(self.J))):.3g}, "
-                f"max |A| = {float(np.max(np.abs(self.A))):.3g}): the sum of its |W_ij| must stay below half "
-                f"the largest float, {0.5 * _FMAX:.3g} (rescale the units of J or A)"
-            )
-        # exact symmetry, ½(W + Wᵀ); rounding would otherwise leak into mᵀWm (in floats: d ≤ 3)
+                W = self.J.dot(Y)
+            # a NaN or inf entry makes the sum non-finite, and a sum of |W_ij| below half the largest float
+            # bounds W_ij + W_ji below, and every entry of Rᵀ W R, n⁰ᵀ W n⁰ and tr W that the laws compute
+            if not sum([abs(x) for x in W.ravel().tolist()]) < 0.5 * _FMAX:
+                raise NonFiniteError(
+                    f"the Delassus matrix W = J A⁻¹ Jᵀ overflows (max |J| = {float(np.max(np.abs(self.J))):.3g}, "
+                    f"max |A| = {float(np.max(np.abs(self.A))):.3g}): the sum of its |W_ij| must stay below half "
+                    f"the largest float, {0.5 * _FMAX:.3g} (rescale the units of J or A)"
+                )
+        # exact symmetry, ½(W + Wᵀ): rounding would otherwise leak into mᵀWm (in floats for d = 3)
         if len(W) == 3:
-            (a, b, c), (d, e, f), (g, h, k) = W
-            out = np.array([[0.5 * (a + a), 0.5 * (b + d), 0.5 * (c + g)], [0.5 * (d + b), 0.5 * (e + e), 0.5 * (f + h)],
-                            [0.5 * (g + c), 0.5 * (h + f), 0.5 * (k + k)]])
+            (a, b, c), (d, e, f), (g, h, k) = W.tolist()
+            b, c, f = 0.5 * (b + d), 0.5 * (c + g), 0.5 * (f + h)
+            out = np.array([a, b, c, b, e, f, c, f, k]).reshape(3, 3)
         else:
-            out = np.array([[0.5 * (W[i][j] + W[j][i]) for j in range(len(W))] for i in range(len(W))])
+            out = W + W.T
+            out *= 0.5
         out.setflags(write=False)
         return out
 
-    @_lazy
+    @lazy
     def range_projector(self) -> NDArray[np.float64] | None:
         """Orthogonal projector onto range(W), or None when W has full rank."""
         W = self.W

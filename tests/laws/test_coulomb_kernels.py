@@ -1,13 +1,15 @@
 """CoulombLaw's compiled phases (:mod:`mbimpact.laws.coulomb_kernels`).
 
-A batch equals its rows applied one by one (closed forms computed in Python for single impacts,
-the compiled phases for batches); the compiled code equals the same source interpreted
-(``NUMBA_DISABLE_JIT=1``) to the last bit; closed forms never import numba; failures are named
-errors; the first-call cost is measurable.
+A batch equals its rows applied one by one (a single impact is one compiled call, or a closed form
+in Python floats before numba is loaded); the compiled code equals the same source interpreted
+(``NUMBA_DISABLE_JIT=1``) to the last bit, and the floats of a single closed form equal the compiled
+call's; closed forms never import numba; failures are named errors; the first-call cost is
+measurable.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import pickle
@@ -24,7 +26,9 @@ import mbimpact as mbi
 from mbimpact.laws import coulomb
 from mbimpact.laws.coulomb import compile_kernels
 
-from tests.helpers import spd, time_limit
+from mbimpact.metric import local_basis
+
+from tests.helpers import approaching, spd, time_limit
 
 RESTITUTIONS = ["newton", "poisson", "energetic"]
 ROOT = Path(__file__).resolve().parents[2]
@@ -122,14 +126,26 @@ def kernel_problems() -> list[tuple[np.ndarray, np.ndarray, float, float, str]]:
 
 def kernel_results() -> list[object]:
     """What CoulombLaw.contact_impulses gives on :func:`kernel_problems` (P, errors, nodes, or the
-    error's message), as raw bytes where floats."""
+    error's message), as raw bytes where floats; then each row as a single impact (the compiled call
+    of a single impact: A = W⁻¹, J = I, so that u = v)."""
     out: list[object] = []
     for W, U, e, mu, kind in kernel_problems():
+        law = mbi.CoulombLaw(e, mu, kind)
         try:
-            res = mbi.CoulombLaw(e, mu, kind).contact_impulses(W, U)
+            res = law.contact_impulses(W, U)
             out.append((res.P.tobytes(), res.error.tobytes(), res.nodes))
         except mbi.ImpactError as exc:
             out.append(str(exc))
+        d = len(W)
+        A = np.linalg.inv(W)
+        for u in 3.0 * U:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+                    one = law.apply(0.5 * (A + A.T), np.eye(d), u, np.eye(d)[-1])
+                out.append((one.P.tobytes(), one.nodes))
+            except mbi.ImpactError as exc:
+                out.append(str(exc))
     return out
 
 
@@ -148,7 +164,7 @@ def test_the_compiled_phases_equal_the_same_source_interpreted(tmp_path):
     with open(tmp_path / "interpreted.pkl", "rb") as f:
         interpreted = pickle.load(f)
     compiled = kernel_results()
-    assert sum(isinstance(r, tuple) and r[2] > 1 for r in compiled) >= 5  # integrated slips among them
+    assert sum(isinstance(r, tuple) and r[-1] > 1 for r in compiled) >= 5  # integrated slips among them
     assert compiled == interpreted
 
 
@@ -174,6 +190,81 @@ def test_closed_forms_need_no_compiled_code():
                    env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
 
 
+def single_cases(rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, list[float]]]:
+    """(A, J, v, frame) of single impacts, d = 2 and 3, world-aligned and tilted contact frames, from
+    normal incidence to grazing slips, and a rank-deficient J (the general route)."""
+    out = []
+    for k in range(24):
+        d = 3 if k % 4 else 2
+        n = int(rng.integers(d, 7))
+        A, J = spd(rng, n, 30.0), rng.normal(size=(d, n))
+        if k == 5:
+            J[2] = J[0]  # rank-deficient: the general route's minimum-norm impulse
+        frame = [0.0] * (d - 1) + [1.0] if k % 2 else [*(0.3 * rng.normal(size=d - 1)), 1.0]
+        n0 = np.array(frame) / np.linalg.norm(frame)
+        R = local_basis(frame, d)
+        for slip in (0.0, 1e-3, 0.05, 0.5, 3.0):
+            t = rng.normal(size=d - 1)
+            u_local = np.append(slip * t / np.linalg.norm(t), -1.0)
+            v = np.linalg.lstsq(J, R @ u_local, rcond=None)[0]
+            out.append((A, J, approaching(J, v, n0), frame))
+    return out
+
+
+@pytest.mark.parametrize("kind", RESTITUTIONS)
+def test_a_single_impact_in_floats_equals_the_compiled_call(kind):
+    """Before numba is loaded, a single impact that is one formula is computed in Python floats; once
+    it is, every single impact is one compiled call (and so are one-row batches): the same impulse,
+    outcome, step count and error to the last bit, whichever computed it."""
+    rng = np.random.default_rng(43)
+    floats = 0
+    for A, J, v, frame in single_cases(rng):
+        W = J @ np.linalg.solve(A, J.T)
+        stick = np.linalg.norm(np.linalg.lstsq(W[:-1, :-1], W[:-1, -1], rcond=None)[0])
+        for mu in (0.0, 0.3, 1.5 * stick + 0.1):
+            for e in (0.0, 0.6):
+                law = mbi.CoulombLaw(e, mu, kind)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+                    compiled = law.apply(A, J, v, frame)
+                    with coulomb.KERNELS.unloaded():  # as before numba is loaded
+                        python = law.apply(A, J, v, frame)
+                        floats += not coulomb.KERNELS.ready
+                for field in ("P", "v_plus", "u_plus", "dv"):
+                    assert getattr(python, field).tobytes() == getattr(compiled, field).tobytes(), field
+                assert (python.nodes, python.error_estimate) == (compiled.nodes, compiled.error_estimate)
+                # one row of a batch: the Python closed form or the compiled rows
+                R = local_basis(frame, len(W))
+                U = (J @ v @ R)[None, :] / np.linalg.norm(J @ v)
+                Wl = R.T @ W @ R
+                row = law.contact_impulses(Wl, U)
+                with coulomb.KERNELS.unloaded():
+                    python_row = law.contact_impulses(Wl, U)
+                assert python_row.P.tobytes() == row.P.tobytes()
+                assert (python_row.nodes, python_row.error.tobytes()) == (row.nodes, row.error.tobytes())
+    assert floats > 100  # closed forms computed in floats were compared
+
+
+@pytest.mark.parametrize("loaded", [True, False])
+def test_a_normal_out_of_reach_takes_the_general_route(loaded):
+    """n⁰ᵀWn⁰ ≈ 0 (J barely moves the contact along n⁰): the compiled call and the floats both leave it to
+    the general route, which names it."""
+    J = np.array([[1.0, 0.0], [0.0, 1.0], [1e-8, 0.0]])  # n⁰ᵀWn⁰ = 1e-16 ≤ 1e-14 tr W, yet u_n < 0
+    with contextlib.nullcontext() if loaded else coulomb.KERNELS.unloaded():
+        with pytest.raises(mbi.NoImpactError, match="cannot move the contact point along n0"):
+            mbi.CoulombLaw(0.5, 0.3).apply(np.eye(2), J, [-1.0, 0.2], [0.0, 0.0, 1.0])
+
+
+def test_a_delassus_matrix_without_positive_trace_is_a_named_error():
+    """Both routes name it (the floats of a single closed form, and the compiled rows)."""
+    U = np.array([[0.0, 0.0, -1.0]])
+    for rows in (U, np.vstack([U, U])):
+        with pytest.raises(mbi.IntegrationError, match=r"positive finite trace, got 0\.0"):
+            mbi.CoulombLaw(0.5, 0.0).contact_impulses(np.zeros((3, 3)), rows)
+    with coulomb.KERNELS.unloaded(), pytest.raises(mbi.IntegrationError, match=r"positive finite trace, got nan"):
+        mbi.CoulombLaw(0.5, 0.0).contact_impulses(np.full((3, 3), np.nan), U)
+
+
 def test_compile_kernels_reports_the_first_call_cost():
     imported, jitted = compile_kernels()  # loaded already (the module fixture): nothing left to pay
     assert 0.0 <= imported < 0.05 and 0.0 <= jitted < 0.05
@@ -188,6 +279,13 @@ def test_hypot_is_cpythons_to_the_last_bit():
         y = rng.normal(size=3000) * 10.0 ** rng.uniform(lo, hi, 3000)
         for a, b in zip(x.tolist(), y.tolist()):
             assert py_hypot(a, b) == math.hypot(a, b), (a, b)
+    # where the scalings by powers of two change hands: subnormal, smallest normal, near the largest float
+    for exponent in (-1074, -1060, -1023, -1022, -1021, -1000, 1000, 1021, 1022, 1023):
+        for mantissa in (1.0, 1.5, 1.9999999999999998):
+            big = math.ldexp(mantissa, exponent)
+            for ratio in (0.0, 1e-300, 0.3, 1.0):
+                assert py_hypot(big, -ratio * big) == math.hypot(big, -ratio * big), (big, ratio)
+                assert py_hypot(ratio * big, big) == math.hypot(ratio * big, big), (big, ratio)
     assert py_hypot(math.inf, math.nan) == math.inf and math.isnan(py_hypot(math.nan, 1.0))
 
 

@@ -1,8 +1,9 @@
 """The single-impact paths (ImpactLaw._single_impulse, NewtonLaw.apply_metric) against the batch pipeline.
 
-A single impact skips the array machinery of :meth:`ImpactLaw.impulses` (checks and scalings in
-floats, no rotation for a world-aligned contact frame); its impulse must be the batch pipeline's
-to the last bit, and its result the same checked object.
+A single impact skips the array machinery of :meth:`ImpactLaw.impulses` (checks, scalings and the
+outcome in two compiled calls); for the contact velocity it reports, its impulse must be the batch
+pipeline's to the last bit in a world-aligned contact frame (the rotations are exact there) and to
+rounding in a tilted one, and its result the same checked object.
 """
 
 from __future__ import annotations
@@ -52,14 +53,18 @@ def test_single_impact_equals_the_batch_pipeline(law, normal, name, rng):
             if isinstance(law, mbi.RoughLaw) and law.dim == 2:
                 continue
             metric = ContactMetric.from_mechanism(mech, q, J)
-            u = J @ v
+            u = r.u_minus  # J v summed in the compiled order; numpy's may differ in the last bit
+            np.testing.assert_allclose(u, J @ v, rtol=0, atol=1e-14 * np.abs(u).max())
             out = law.impulses(metric, u[None, :], R)  # the batch pipeline, one row
         if isinstance(law, mbi.NewtonLaw):  # Newton's own single path solves along one direction only
             np.testing.assert_allclose(r.P, out.P[0], rtol=1e-12, atol=1e-12 * np.abs(out.P).max())
         else:
-            assert np.array_equal(r.P, out.P[0])
-            assert r.error_estimate == float(out.error[0]) and r.nodes == out.nodes and r.method == out.method
-        assert np.array_equal(r.u_minus, u) and np.array_equal(r.v_minus, v)
+            if normal == (0.0, 0.0, 1.0):
+                assert np.array_equal(r.P, out.P[0]) and r.error_estimate == float(out.error[0])
+            else:  # Rᵀ W R and R P summed in another order than numpy's
+                np.testing.assert_allclose(r.P, out.P[0], rtol=0, atol=1e-14 * np.abs(out.P).max())
+            assert r.nodes == out.nodes and r.method == out.method
+        assert np.array_equal(r.v_minus, v)
         for a in (r.v_minus, r.v_plus, r.dv, r.P, r.u_minus, r.u_plus, r.n0):
             assert not a.flags.writeable
         assert r.separates == bool(mbi.results.quantities.separates(r.n0, r.u_minus, r.u_plus))

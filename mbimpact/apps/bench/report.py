@@ -59,7 +59,7 @@ def format_report(rows: list[BenchRow]) -> str:
                       "| case | call | µs | ratio to Jacobian + impulseDynamics | relative difference of P from ours |",
                       [f"| {r.case} | {r.method} | {r.seconds * 1e6:.1f} | {r.ratio:.1f} | {blank0(r.error)} |"
                        for r in part("coulomb") if not r.case.startswith("JIT")])
-        out += _table("## Coulomb law: first call of a process (fresh interpreter)", "| case | what | s |",
+        out += _table("## Compiled kernels: first calls of a process (fresh interpreter)", "| case | what | s |",
                       [f"| {r.case} | {r.method} | {r.seconds:.2f} |" for r in part("coulomb") if r.case.startswith("JIT")])
     if part("threads"):
         out += _table("## Batches under both BLAS thread settings (UR5, one configuration, fresh interpreters)",
