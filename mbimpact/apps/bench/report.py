@@ -119,14 +119,16 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
                     marker="x" if slopes else "o")
     ax1.set(xscale="log", yscale="log", xlabel="µs per impact", ylabel="relative error of Δu = W P",
             title="Accuracy vs time: cone α = 0.4 (all β, all cases); x: Gaussian slopes, near-singular UR5")
-    ax1.legend(fontsize=8)
+    if acc:  # a run of other parts only has nothing to label (matplotlib would warn)
+        ax1.legend(fontsize=8)
     bat = [r for r in rows if r.part == "batch"]
     for name, param in dict.fromkeys((r.method, r.param) for r in bat):
         series = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6)
                         for r in bat if (r.method, r.param) == (name, param))
         ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
     ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
-    ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if bat:
+        ax2.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
