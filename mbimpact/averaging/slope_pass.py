@@ -49,7 +49,6 @@ FIRST_LEVELS = 4
 KERNELS = KernelModule("mbimpact.averaging.slope_pass_kernels")
 
 
-
 def compile_kernels() -> tuple[float, float]:
     """Make the compiled kernels of :class:`SlopePass` ready, and time it (what the first single impact
     on an isotropic tilt density of a process pays): ``(import_seconds, jit_seconds)``, see

@@ -8,7 +8,8 @@ memory. The solves are the factor's triangular solves, as backward stable as Pin
 is as accurate as with ``pin.cholesky.solve``.
 
 Imported on first use only (:data:`mbimpact.metric.delassus.KERNELS`): numba costs ~0.3 s to
-import. Run with ``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
+import, and the import compiles the kernels' explicit signatures (or loads them from numba's disk
+cache). Run with ``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import math
 import time
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numpy.typing import NDArray
 
 __all__ = ["delassus", "contact_state", "outcome", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF"]
@@ -25,11 +26,22 @@ __all__ = ["delassus", "contact_state", "outcome", "jit_seconds", "READY", "DECL
 # status codes of :func:`contact_state`
 READY, DECLINED, U_NOT_FINITE, SPEED_INF = 0, 1, 2, 3
 
+# Explicit signatures, compiled (or loaded from the cache) on import: read-only arrays of any layout, so
+# that one machine code serves every caller (a frozen metric's J, Pinocchio's column-major U, a user's
+# read-only v); numba would otherwise compile a specialisation, for seconds, at the first call of each.
+_IN1, _IN2 = types.Array(types.float64, 1, "A", readonly=True), types.Array(types.float64, 2, "A", readonly=True)
+_OUT1, _OUT2 = types.float64[::1], types.float64[:, ::1]
+_DELASSUS = types.Tuple((_OUT2, _OUT2, types.boolean))(_IN2, _IN1, _IN2)
+_STATE = types.Tuple((types.int64, _OUT1, _OUT2, _OUT2, types.float64, types.float64))(
+    _IN2, _IN1, _IN2, _IN2, types.float64, types.float64)
+_OUTCOME = types.Tuple((_OUT1, _OUT1, _OUT1, _OUT1, types.boolean))(
+    _IN2, _IN2, types.float64, _IN2, _IN2, _IN1, _IN1)
+
 # half the largest float: a W whose |W_ij| sum below it cannot overflow in any sum the laws form
 _HALF_MAX = 0.5 * 1.7976931348623157e308
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_DELASSUS, cache=True, error_model="numpy")
 def delassus(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64]
              ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:  # pragma: no cover — compiled
     """A⁻¹Jᵀ (as its transpose) and W = J A⁻¹ Jᵀ for A = U D Uᵀ.
@@ -88,7 +100,7 @@ def delassus(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float
     return Yt, W, finite
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_STATE, cache=True, error_model="numpy")
 def contact_state(J: NDArray[np.float64], v: NDArray[np.float64], W: NDArray[np.float64], R: NDArray[np.float64],
                   degenerate: float, rank_floor: float
                   ) -> tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float, float
@@ -167,7 +179,7 @@ def contact_state(J: NDArray[np.float64], v: NDArray[np.float64], W: NDArray[np.
     return READY, u, Wl, Ul, speed, w_scale
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_OUTCOME, cache=True, error_model="numpy")
 def outcome(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, Yt: NDArray[np.float64],
             W: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64]
             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], bool
@@ -217,11 +229,10 @@ def outcome(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, 
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`delassus` callable in this process (numba's import excluded): its
-    machine code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
+    """Wall time of one call of each kernel once the module is imported: ~0, since the import itself
+    compiles the explicit signatures, or loads them from numba's on-disk cache."""
     start = time.perf_counter()
-    U = np.asfortranarray(np.eye(2))  # Pinocchio's data.U is column-major
-    delassus(U, np.ones(2), np.ones((1, 2)))
+    delassus(np.eye(2), np.ones(2), np.ones((1, 2)))
     J, v, R = np.eye(3), -np.ones(3), np.eye(3)
     _, u, Wl, Ul, speed, w_scale = contact_state(J, v, np.eye(3), R, 1e-14, 1e-12)
     outcome(Ul, R, speed / w_scale, J, np.eye(3), u, v)
