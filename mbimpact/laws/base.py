@@ -211,9 +211,10 @@ class ImpactLaw(ABC):
                                      "the inputs are finite but too large together (rescale the velocities)")
             return None
         out = self.contact_impulses(W_local, U_local)
-        Yt = metric.AinvJt.T
-        P, dv, v_plus, u_plus, finite = kernels.outcome(
-            out.P, R, speed / w_scale, Yt if Yt.flags.c_contiguous else np.ascontiguousarray(Yt), W, u, v)
+        n = len(v)
+        buffer = np.empty(6 + 2 * n)
+        finite = kernels.outcome(out.P, R, speed / w_scale, metric.AinvJt.T, W, u, v, buffer)
+        P, u_plus, dv, v_plus = buffer[:3], buffer[3:6], buffer[6:6 + n], buffer[6 + n:]
         if not finite:
             check_in_range("the impact's outcome (P, v₊ or u₊)", P, v_plus, u_plus)
         n0 = R[:, -1].copy()

@@ -34,8 +34,7 @@ _OUT1, _OUT2 = types.float64[::1], types.float64[:, ::1]
 _DELASSUS = types.Tuple((_OUT2, _OUT2, types.boolean))(_IN2, _IN1, _IN2)
 _STATE = types.Tuple((types.int64, _OUT1, _OUT2, _OUT2, types.float64, types.float64))(
     _IN2, _IN1, _IN2, _IN2, types.float64, types.float64)
-_OUTCOME = types.Tuple((_OUT1, _OUT1, _OUT1, _OUT1, types.boolean))(
-    _IN2, _IN2, types.float64, _IN2, _IN2, _IN1, _IN1)
+_OUTCOME = types.boolean(_IN2, _IN2, types.float64, _IN2, _IN2, _IN1, _IN1, _OUT1)
 
 # half the largest float: a W whose |W_ij| sum below it cannot overflow in any sum the laws form
 _HALF_MAX = 0.5 * 1.7976931348623157e308
@@ -181,9 +180,8 @@ def contact_state(J: NDArray[np.float64], v: NDArray[np.float64], W: NDArray[np.
 
 @njit(_OUTCOME, cache=True, error_model="numpy")
 def outcome(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, Yt: NDArray[np.float64],
-            W: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64]
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], bool
-                       ]:  # pragma: no cover — compiled
+            W: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64], out: NDArray[np.float64]
+            ) -> bool:  # pragma: no cover — compiled
     """The impact's outcome by Lagrange's equations (1.1) from a law's local unit impulse.
 
     Parameters
@@ -197,35 +195,30 @@ def outcome(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, 
         (A⁻¹Jᵀ)ᵀ.
     W : ndarray, shape (3, 3)
     u, v : ndarray, shapes (3,), (n,)
+    out : ndarray, shape (6 + 2n,)
+        Filled with P = R P_local · scale (world-aligned contact impulse), u₊ = u + W P, Δv = A⁻¹JᵀP
+        and v₊ = v + Δv, in this order (one buffer: an array returned by a compiled function costs
+        more to hand back to Python than a view costs to take).
 
     Returns
     -------
-    P : ndarray, shape (3,)
-        World-aligned contact impulse R P_local · scale.
-    dv, v_plus : ndarray, shape (n,)
-        Δv = A⁻¹JᵀP and v + Δv.
-    u_plus : ndarray, shape (3,)
-        u + W P.
-    finite : bool
+    bool
         Whether every entry of P, v₊ and u₊ is finite.
     """
     n = v.shape[0]
-    P = np.empty(3)
     for i in range(3):
-        P[i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
-    dv = np.empty(n)
-    v_plus = np.empty(n)
+        out[i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
+    p0, p1, p2 = out[0], out[1], out[2]
     total = 0.0
-    for k in range(n):
-        x = Yt[0, k] * P[0] + Yt[1, k] * P[1] + Yt[2, k] * P[2]
-        dv[k] = x
-        v_plus[k] = v[k] + x
-        total += v_plus[k]
-    u_plus = np.empty(3)
     for i in range(3):
-        u_plus[i] = u[i] + (W[i, 0] * P[0] + W[i, 1] * P[1] + W[i, 2] * P[2])
-        total += u_plus[i] + P[i]
-    return P, dv, v_plus, u_plus, math.isfinite(total)
+        out[3 + i] = u[i] + (W[i, 0] * p0 + W[i, 1] * p1 + W[i, 2] * p2)
+        total += out[3 + i] + out[i]
+    for k in range(n):
+        x = Yt[0, k] * p0 + Yt[1, k] * p1 + Yt[2, k] * p2
+        out[6 + k] = x
+        out[6 + n + k] = v[k] + x
+        total += out[6 + n + k]
+    return math.isfinite(total)
 
 
 def jit_seconds() -> float:
@@ -235,5 +228,5 @@ def jit_seconds() -> float:
     delassus(np.eye(2), np.ones(2), np.ones((1, 2)))
     J, v, R = np.eye(3), -np.ones(3), np.eye(3)
     _, u, Wl, Ul, speed, w_scale = contact_state(J, v, np.eye(3), R, 1e-14, 1e-12)
-    outcome(Ul, R, speed / w_scale, J, np.eye(3), u, v)
+    outcome(Ul, R, speed / w_scale, J, np.eye(3), u, v, np.empty(12))
     return time.perf_counter() - start
