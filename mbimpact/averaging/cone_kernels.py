@@ -4,7 +4,7 @@ The two integrals of (2.8) with the flux weights of (2.7) over the facing arc of
 at n and at 2n azimuth nodes, their impulses P = (1+e) N / D and the relative difference of the
 two by the velocity change W P they produce — the first pass of the adaptive rule — compiled by
 numba (``njit``, cached on disk). It is imported on first use only: numba costs ~0.3 s to import,
-more than ``import mbimpact`` may take (:func:`mbimpact.averaging.cone_pair.compile_kernels`).
+more than ``import mbimpact`` may take (:data:`mbimpact.averaging.cone_pair.KERNELS`).
 
 The nodes are those of :func:`mbimpact.quadrature.rules.azimuth_rule`, measured from the azimuth
 ψ of u_t (θ = φ − ψ): the periodic trapezoid rule θ = 2πj/n on the full ring when the whole cone
@@ -25,7 +25,7 @@ import math
 import time
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
@@ -69,7 +69,14 @@ def rule_table(n: int) -> NDArray[np.float64]:
     return table
 
 
-@njit(cache=True, error_model="numpy")
+# One explicit signature, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
+# that a caller's read-only or strided W or U does not make numba compile another specialisation
+_IN2 = types.Array(types.float64, 2, "A", readonly=True)
+_SIGNATURE = types.int64(types.float64, _IN2, _IN2, _IN2, types.boolean, types.float64, types.float64, types.float64,
+                         types.float64[:, ::1], types.float64[::1])
+
+
+@njit(_SIGNATURE, cache=True, error_model="numpy")
 def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
               configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
               error: NDArray[np.float64]) -> int:

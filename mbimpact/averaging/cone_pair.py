@@ -7,7 +7,7 @@ rule — n and 2n azimuth nodes, exactly those of :func:`mbimpact.quadrature.rul
 P = (1+e) N / D and the relative difference of the two — is therefore one call of a numba kernel
 (:func:`mbimpact.averaging.cone_kernels.cone_pair`) on floats. Its result is the one of the
 adaptive rule's first pass up to rounding. The kernel is compiled (or loaded from numba's
-on-disk cache) on first use: :func:`compile_kernels` does it and times it.
+on-disk cache) on first use (:data:`KERNELS`; :func:`mbimpact.compile_kernels` does it ahead of time).
 """
 
 from __future__ import annotations
@@ -23,16 +23,10 @@ from ..results.impact import ContactImpulses
 from .base import Averaging
 from .kernels import AveragingSpec
 
-__all__ = ["ConePair", "KERNELS", "compile_kernels"]
+__all__ = ["ConePair", "KERNELS"]
 
 #: The compiled kernel of :class:`ConePair` (:mod:`mbimpact.averaging.cone_kernels`), loaded on first use.
 KERNELS = KernelModule("mbimpact.averaging.cone_kernels")
-
-
-def compile_kernels() -> tuple[float, float]:
-    """Make the compiled kernel of :class:`ConePair` ready, and time it (what the first single impact on
-    a cone of a process pays): ``(import_seconds, jit_seconds)``, see :meth:`KernelModule.compile`."""
-    return KERNELS.compile()
 
 
 class ConePair(Averaging):

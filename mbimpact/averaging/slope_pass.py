@@ -20,8 +20,8 @@ ill-conditioned W) or raise (no facing facet), the method declines and ``"auto"`
 velocity to ``adaptive``, which then does exactly that.
 
 The kernels are compiled (or loaded from numba's on-disk cache) on first use:
-:func:`compile_kernels` does it and times it (and :func:`mbimpact.compile_kernels` with every other
-kernel of the package).
+:data:`KERNELS`, and :func:`mbimpact.compile_kernels` does it ahead of time with every other kernel of
+the package.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from ..roughness.slopes import GaussianTiltDensity, IsotropicSlopes
 from .base import Averaging
 from .kernels import AveragingSpec, general_facets
 
-__all__ = ["SlopePass", "KERNELS", "compile_kernels", "FIRST_LEVELS"]
+__all__ = ["SlopePass", "KERNELS", "FIRST_LEVELS"]
 
 #: Levels of the first call (n0 … 8 n0: the 8 … 64 nodes a piece of a typical single impact);
 #: a velocity that needs more gets the table of every level up to ``max_nodes`` and goes on.
@@ -47,13 +47,6 @@ FIRST_LEVELS = 4
 
 #: The compiled kernels of :class:`SlopePass` (:mod:`mbimpact.averaging.slope_pass_kernels`), loaded on first use.
 KERNELS = KernelModule("mbimpact.averaging.slope_pass_kernels")
-
-
-def compile_kernels() -> tuple[float, float]:
-    """Make the compiled kernels of :class:`SlopePass` ready, and time it (what the first single impact
-    on an isotropic tilt density of a process pays): ``(import_seconds, jit_seconds)``, see
-    :meth:`mbimpact.common.compiled.KernelModule.compile`."""
-    return KERNELS.compile()
 
 
 @functools.lru_cache(maxsize=32)

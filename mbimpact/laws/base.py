@@ -8,13 +8,12 @@ Every law shares one pipeline (:mod:`mbimpact.theory`, §5):
 3. result — Δv = A⁻¹ Jᵀ P and I = Jᵀ P, Lagrange's equations (1.1).
 
 Entry points: :meth:`ImpactLaw.apply` and :meth:`ImpactLaw.apply_batch` on arrays,
-:func:`mbimpact.impact` on a mechanism (through :meth:`ImpactLaw.apply_metric`), and
+:func:`mbimpact.impact` on a mechanism (through :meth:`ImpactLaw.apply_mechanism`), and
 :meth:`ImpactLaw.impulses` for contact velocities given directly (a moving surface).
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, ClassVar
 
@@ -27,7 +26,7 @@ from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
 from ..metric.delassus import KERNELS as METRIC_KERNELS
-from ..metric.delassus import ContactMetric, spread_bound
+from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
 
@@ -36,7 +35,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ImpactLaw"]
 
-_EYE3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]  # a contact frame that is the world's, as R.tolist()
 
 
 class ImpactLaw(ABC):
@@ -170,12 +168,8 @@ class ImpactLaw(ABC):
         with quiet_overflow():  # extreme magnitudes overflow silently here and are named below
             u = metric.J.dot(v)
             check_in_range("the contact velocity J v", u)
-            single = self._single_impulse(metric, u, R) if self._single_route() else None
-            if single is None:
-                out = self.impulses(metric, u[None, :], R)
-                P, err, nodes, method, speed = out.P[0], float(out.error[0]), out.nodes, out.method, None
-            else:
-                P, err, nodes, method, speed = single
+            out = self.impulses(metric, u[None, :], R)
+            P, err, nodes, method = out.P[0], float(out.error[0]), out.nodes, out.method
             dv = metric.AinvJt.dot(P)
             u_plus = u + metric.W.dot(P)
             v_plus = v + dv
@@ -185,9 +179,7 @@ class ImpactLaw(ABC):
             v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0, A=metric.A, J=metric.J,
             law=self, error_estimate=err, nodes=nodes, method=method,
         )
-        # result.separates, in floats where |u₋| is at hand
-        separates = result.separates if speed is None else float(n0.dot(u_plus)) >= -SEPARATION_RTOL * speed
-        if not separates:
+        if not result.separates:
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
                  f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
         return result
@@ -233,50 +225,9 @@ class ImpactLaw(ABC):
         return "further micro-impacts follow (a RoughLaw with repeat=True applies them)"
 
     def _single_route(self) -> bool:
-        """Whether :meth:`apply_metric` may take :meth:`_single_impulse`: only while :meth:`impulses` is
+        """Whether :meth:`apply_metric` may take :meth:`_compiled_single`: only while :meth:`impulses` is
         this class's own (a law that overrides it keeps its own route)."""
         return type(self).impulses is ImpactLaw.impulses
-
-    def _single_impulse(self, metric: ContactMetric, u: NDArray[np.float64], R: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], float, int, str, float] | None:
-        """:meth:`impulses` for the one contact velocity ``u`` (3,) of a single spatial impact: the same
-        arithmetic (the same impulse to the last bit) with the checks and scalings on 3 × 3 numbers done
-        in floats instead of array calls, and the rotations skipped when the contact frame is the world's
-        (they are exact no-ops then). Returns (P, error estimate, nodes, method, |u|), or None for what
-        the general route treats: no approach, n⁰ out of reach, a rank-deficient W, a planar contact or a
-        law of another contact dimension."""
-        if len(u) != 3 or (self.dim is not None and self.dim != 3):
-            return None
-        W = metric.W
-        w, rl = W.tolist(), R.tolist()
-        u0, u1, u2 = u.tolist()
-        n0, n1, n2 = rl[0][2], rl[1][2], rl[2][2]
-        if not u0 * n0 + u1 * n1 + u2 * n2 < 0.0:
-            return None
-        (w00, w01, w02), (w10, w11, w12), (w20, w21, w22) = w
-        wnn = (n0 * (w00 * n0 + w01 * n1 + w02 * n2) + n1 * (w10 * n0 + w11 * n1 + w12 * n2)
-               + n2 * (w20 * n0 + w21 * n1 + w22 * n2))
-        if not wnn > DEGENERATE * (w00 + w11 + w22):
-            return None
-        if not spread_bound(w) > 1e-12:  # rank-deficient: the general route reports the minimum-norm impulse
-            return None
-        # as impulses(): unit velocity (scaled first: no over- or underflow), W of unit trace
-        big = max(abs(u0), abs(u1), abs(u2))
-        t0, t1, t2 = u0 / big, u1 / big, u2 / big
-        speed = big * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-        if speed == math.inf:
-            raise NonFiniteError("the magnitude |u| of the contact velocity: beyond the float range (inf); "
-                                 "the inputs are finite but too large together (rescale the velocities)")
-        if rl == _EYE3:
-            out = self.contact_impulses(W / (w00 + w11 + w22), (u / speed)[None, :])
-            P = out.P[0] * (speed / (w00 + w11 + w22))
-        else:
-            W_local = R.T.dot(W).dot(R)
-            wl = W_local.tolist()
-            w_scale = wl[0][0] + wl[1][1] + wl[2][2]
-            out = self.contact_impulses(W_local / w_scale, (u.dot(R) / speed)[None, :])
-            P = R.dot(out.P[0]) * (speed / w_scale)
-        return P, float(out.error[0]), out.nodes, out.method, speed
 
     def apply(self, A: ArrayLike, J: ArrayLike, v: ArrayLike, frame: ArrayLike) -> ImpactResult:
         """Post-impact state for mass matrix ``A``, contact Jacobian ``J``, velocity ``v``.

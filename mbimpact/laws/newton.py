@@ -12,7 +12,7 @@ from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
 from ..metric.basis import local_basis
 from ..metric.delassus import ContactMetric
-from ..results.impact import BatchResult, ContactImpulses, ImpactResult, NormalImpactResult
+from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from .base import ImpactLaw
 from .restitution import restitution_from
 
@@ -30,13 +30,11 @@ _MODERATE = 1e80
 class NewtonLaw(ImpactLaw):
     """Frictionless Newton impact (1.2): Δv = −(1+e)(N, v₋) N / |N|².
 
-    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)``; on a mechanism
-    (:func:`mbimpact.impact`) it *is* that call (:meth:`apply_mechanism`), and the result
-    (:class:`~mbimpact.results.NormalImpactResult`) computes Δv, P and u± on first access. On arrays
-    (:meth:`apply`, :meth:`apply_batch`) the same closed form runs through the Cholesky factor of A.
-    The reported contact impulse is P = P_n n⁰ whatever the rank of J: the frictionless impulse is
-    normal, and Δv = P_n A⁻¹Jᵀn⁰ needs no projection (other laws report the minimum-norm P of a
-    rank-deficient J).
+    Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)`` to rounding: the
+    same factor of A(q), one solve along n⁰ᵀJ. On a mechanism (:func:`mbimpact.impact`) it needs no
+    Delassus matrix (:meth:`apply_mechanism`). The reported contact impulse is P = P_n n⁰ whatever
+    the rank of J: the frictionless impulse is normal, and Δv = P_n A⁻¹Jᵀn⁰ needs no projection
+    (other laws report the minimum-norm P of a rank-deficient J).
 
     Parameters
     ----------
@@ -59,13 +57,16 @@ class NewtonLaw(ImpactLaw):
 
     def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
                         J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
-        """Pinocchio's own impact: ``pin.impulseDynamics`` on the normal row n⁰ᵀJ
-        (:meth:`Mechanism.normal_impact`), with Δv, P and u± completed on demand
-        (:class:`~mbimpact.results.NormalImpactResult`).
+        """:meth:`apply_metric` without the metric: Newton's impulse needs A⁻¹ along n⁰ᵀJ only
+        (:meth:`Mechanism.solve_along`, one solve with Pinocchio's factor), and its checks are a few
+        floats. The same arithmetic as the closed form of :meth:`apply_metric`, to the last bit.
 
         The degenerate cases (no approach, n⁰ out of reach, A(q) not positive definite) and extreme
-        magnitudes take the general route, which names them or treats them.
+        magnitudes take the general route, which names them or treats them; so does a subclass that
+        overrides :meth:`apply_metric`.
         """
+        if type(self).apply_metric is not NewtonLaw.apply_metric:
+            return super().apply_mechanism(mech, q, v, J, R)
         n0 = R[:, -1]
         # squares in Python floats (they never warn: an overflow is inf): below _MODERATE², no product
         # of the route can overflow, and the route needs no numpy error state
@@ -77,11 +78,20 @@ class NewtonLaw(ImpactLaw):
         un = float(jn.dot(v))
         if not (un < 0.0 and float(jn.dot(jn)) > 1e-8 * jj):  # no approach, or n⁰ out of reach
             return super().apply_mechanism(mech, q, v, J, R)
-        A, v_plus, Pn, factor = mech.normal_impact(q, v, jn, self.e)
-        # |Δv| ≤ |v₊| + |v|: every field completed later stays far from the float range
-        if not (factor.valid and 0.0 < Pn < _MODERATE and float(v_plus.dot(v_plus)) < _MODERATE * _MODERATE):
+        A, y, valid = mech.solve_along(q, jn)
+        wnn = float(jn.dot(y))
+        Pn = -(1.0 + self.e) * un / wnn if wnn > 0.0 else math.inf
+        # |Δv| = P_n |y| and |J Δv| ≤ |J| |Δv| below _MODERATE²: nothing below can overflow
+        if not (valid and Pn * Pn * float(y.dot(y)) * (1.0 + jj) < _MODERATE * _MODERATE):
             return super().apply_mechanism(mech, q, v, J, R)
-        return NormalImpactResult(v.copy(), v_plus, Pn, n0, A, J, self, factor.solve)
+        dv = Pn * y
+        u = J.dot(v)
+        A.setflags(write=False)
+        J.setflags(write=False)
+        return ImpactResult(
+            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=Pn * n0, u_minus=u, u_plus=u + J.dot(dv), n0=n0.copy(),
+            A=A, J=J, law=self,
+        )
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with

@@ -35,6 +35,18 @@ __all__ = ["Mechanism", "MassFactor"]
 _TOKENS = itertools.count(1)
 
 
+def _restored_factor(mechanism: Mechanism, q: NDArray[np.float64], valid: bool) -> MassFactor:
+    """An unpickled :class:`MassFactor`, with a token of this process (its first solve re-factorises)."""
+    return MassFactor(mechanism, q, next(_TOKENS), valid)
+
+
+def _pivots_valid(data: Any) -> bool:
+    """Every pivot of the workspace's factor finite and > 0 (A positive definite), in floats: min and
+    max may step over a NaN, their sum never does."""
+    D = data.D.tolist()
+    return min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
+
+
 @dataclass(frozen=True, eq=False)
 class MassFactor:
     """The sparse Cholesky factor of A(q) held in a thread's Pinocchio workspace.
@@ -56,6 +68,10 @@ class MassFactor:
     def __init__(self, mechanism: Mechanism, q: NDArray[np.float64], token: int, valid: bool) -> None:
         # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
         self.__dict__.update(mechanism=mechanism, q=q, token=token, valid=valid)
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # a new token when unpickled (in the loading process): its counter may have issued this one already
+        return (_restored_factor, (self.mechanism, self.q, self.valid))
 
     def _data(self) -> Any:
         """This thread's workspace, holding this factor (re-factorised at ``q`` if it was reused)."""
@@ -132,7 +148,10 @@ class Mechanism:
 
     @property
     def data(self) -> Any:
-        """This thread's Pinocchio workspace."""
+        """This thread's Pinocchio workspace. The factors of A(q) that metrics keep for later solves
+        (:meth:`ContactMetric.solve`) live in it: Pinocchio algorithms that factorise A in it
+        (``pin.impulseDynamics``, ``pin.cholesky.decompose``) make those solves wrong; give your own
+        Pinocchio calls ``model.createData()``. Impact results never depend on it afterwards."""
         return self.workspace().data
 
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
@@ -334,37 +353,28 @@ class Mechanism:
         A = pin.crba(model, data, q).copy()
         pin.cholesky.decompose(model, data)
         local.token = token = next(_TOKENS)
-        # every pivot finite and > 0, in floats: min and max may step over a NaN, their sum never does
-        D = data.D.tolist()
-        valid = min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
-        return A, MassFactor(self, q.copy(), token, valid)
+        return A, MassFactor(self, q.copy(), token, _pivots_valid(data))
 
-    def normal_impact(self, q: NDArray[np.float64], v: NDArray[np.float64], jn: NDArray[np.float64], e: float
-                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, MassFactor]:
-        """Pinocchio's frictionless impact (1.2) along one constraint row, for a validated state.
-
-        ``pin.impulseDynamics`` with the single row ``jn`` (nv,) = n⁰ᵀJ and restitution ``e``: one
-        call does the factorisation of A(q), n⁰ᵀWn⁰ and the impulse.
+    def solve_along(self, q: NDArray[np.float64], b: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
+        """A(q) and A(q)⁻¹ b for a validated ``q`` and one vector ``b`` (nv,): what Newton's law needs
+        (b = Jᵀn⁰), by the sparse Cholesky factor that ``pin.impulseDynamics`` uses.
 
         Returns
         -------
         A : ndarray, shape (nv, nv)
             A(q) from ``pin.crba``, full symmetric.
-        v_plus : ndarray, shape (nv,)
-            Post-impact velocity.
-        P_n : float
-            Normal impulse (non-finite when A(q) or n⁰ᵀWn⁰ is singular: check ``factor.valid``).
-        factor : MassFactor
-            The factor of A(q) the impact used, for further solves.
+        y : ndarray, shape (nv,)
+            A⁻¹ b (meaningless when not ``valid``).
+        valid : bool
+            A(q) is positive definite (see :attr:`MassFactor.valid`).
         """
         local = self.workspace()
         model, data = self.model, local.data
-        A = pin.crba(model, data, q).copy()  # symmetric; impulseDynamics' own crba fills one triangle only
-        v_plus = pin.impulseDynamics(model, data, v, jn[None, :], e, 0.0)  # factorises A, as factorise() does
-        local.token = token = next(_TOKENS)
-        D = data.D.tolist()
-        valid = min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
-        return A, v_plus, float(data.impulse_c[0]), MassFactor(self, q.copy(), token, valid)
+        A = pin.crba(model, data, q).copy()
+        pin.cholesky.decompose(model, data)
+        local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
+        return A, pin.cholesky.solve(model, data, b), _pivots_valid(data)
 
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""

@@ -4,9 +4,11 @@ For a contact point with world-aligned translational Jacobian ``J`` (d, n) the
 A-metric normal of a facet with physical unit normal ``m`` is
 N_m = A⁻¹ Jᵀ m / √(mᵀ W m) with the Delassus matrix W = J A⁻¹ Jᵀ, and its flux is
 (N_m, v) = mᵀ u / √(mᵀ W m) with u = J v (:mod:`mbimpact.theory`, §3). Everything
-the impact laws need is therefore one factorisation of A, ``A⁻¹ Jᵀ`` and ``W``;
-:class:`ContactMetric` computes the last two on demand, so that Newton's law,
-which needs A⁻¹ along one direction only, pays for one solve.
+the impact laws need is therefore one factorisation of A, ``A⁻¹ Jᵀ`` and ``W``. On a
+mechanism, :meth:`ContactMetric.from_mechanism` computes the last two with the metric, in one
+compiled call on Pinocchio's factor (:mod:`mbimpact.metric.kernels`); on arrays they are
+computed on first use. (Newton's law on a mechanism needs A⁻¹ along one direction only and
+builds no metric: :meth:`mbimpact.NewtonLaw.apply_mechanism`.)
 """
 
 from __future__ import annotations
@@ -50,10 +52,11 @@ class ContactMetric:
     J : ndarray, shape (d, n)
         World-aligned translational contact Jacobian, d = 2 or 3.
     AinvJt : ndarray, shape (n, d)
-        A⁻¹ Jᵀ (computed on first use): maps a contact impulse P to Δv = A⁻¹ Jᵀ P.
+        A⁻¹ Jᵀ (with the metric on a mechanism, else on first use): maps a contact impulse P to
+        Δv = A⁻¹ Jᵀ P.
     W : ndarray, shape (d, d)
-        Delassus matrix J A⁻¹ Jᵀ (on first use; exactly symmetric, positive semidefinite);
-        a :class:`NonFiniteError` when it overflows.
+        Delassus matrix J A⁻¹ Jᵀ (likewise; exactly symmetric, positive semidefinite); a
+        :class:`NonFiniteError` when it overflows.
     """
 
     A: NDArray[np.float64]

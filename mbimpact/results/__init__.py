@@ -1,11 +1,10 @@
 """Stage 6 of the pipeline: results that check themselves (κ, μ, energy, separation, method)."""
 
-from .impact import BatchResult, ContactImpulses, ImpactResult, NormalImpactResult
+from .impact import BatchResult, ContactImpulses, ImpactResult
 from .quantities import SEPARATION_RTOL, energy_loss, friction_ratio, restitution, separates
 
 __all__ = [
     "ImpactResult",
-    "NormalImpactResult",
     "BatchResult",
     "ContactImpulses",
     "SEPARATION_RTOL",

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.lazy import lazy
 from . import quantities
 
-__all__ = ["ContactImpulses", "ImpactResult", "NormalImpactResult", "BatchResult"]
+__all__ = ["ContactImpulses", "ImpactResult", "BatchResult"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,67 +166,6 @@ class ImpactResult:
             f"energy_loss={self.energy_loss:.6g} u_plus={np.array2string(self.u_plus, precision=6)} "
             f"({self.method}, {self.nodes} nodes)"
         )
-
-
-class NormalImpactResult(ImpactResult):
-    """An :class:`ImpactResult` whose impulse is normal, P = P_n n⁰ (Newton's law), completed on demand.
-
-    The impact itself (``v_plus`` and the normal impulse ``P_n``) is computed when the result is
-    made; Δv = P_n A⁻¹Jᵀn⁰, P, u₋ and u₊ are computed on first access (one solve and three
-    products), so that a caller who reads only ``v_plus`` does not pay for them. Every field is
-    the same as an eagerly built :class:`ImpactResult`'s, to rounding.
-
-    Parameters
-    ----------
-    v_minus, v_plus : ndarray, shape (n,)
-    P_n : float
-        Normal contact impulse (> 0).
-    n0 : ndarray, shape (d,)
-    A : ndarray, shape (n, n)
-    J : ndarray, shape (d, n)
-    law : ImpactLaw
-    solve : callable
-        b ↦ A⁻¹ b for b (n,), by the factor the impact used.
-    """
-
-    def __init__(self, v_minus: NDArray[np.float64], v_plus: NDArray[np.float64], P_n: float,
-                 n0: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], law: Any,
-                 solve: Callable[[NDArray[np.float64]], NDArray[np.float64]]) -> None:
-        v_minus.setflags(write=False)
-        v_plus.setflags(write=False)
-        n0.setflags(write=False)
-        self.__dict__.update(v_minus=v_minus, v_plus=v_plus, n0=n0, A=A, J=J, law=law, error_estimate=0.0, nodes=1,
-                             method="closed-form", _normal=P_n, _solve=solve)
-
-    @property
-    def P_n(self) -> float:  # noqa: N802
-        """Normal contact impulse n⁰·P (≥ 0)."""
-        return float(self.__dict__["_normal"])
-
-    @lazy
-    def dv(self) -> NDArray[np.float64]:
-        """Velocity jump Δv = P_n A⁻¹Jᵀn⁰, shape (n,)."""
-        return _frozen(self.__dict__["_normal"] * self.__dict__["_solve"](self.n0.dot(self.J)))
-
-    @lazy
-    def P(self) -> NDArray[np.float64]:  # noqa: N802
-        """Contact impulse P_n n⁰, shape (d,)."""
-        return _frozen(self.__dict__["_normal"] * self.n0)
-
-    @lazy
-    def u_minus(self) -> NDArray[np.float64]:
-        """Contact-point velocity J v₋, shape (d,)."""
-        return _frozen(self.J.dot(self.v_minus))
-
-    @lazy
-    def u_plus(self) -> NDArray[np.float64]:
-        """Contact-point velocity after the impact, u₋ + J Δv, shape (d,)."""
-        return _frozen(self.u_minus + self.J.dot(self.dv))
-
-
-def _frozen(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,7 +25,7 @@ import pytest
 import mbimpact as mbi
 from mbimpact.averaging import ConePair
 from mbimpact.averaging import cone_kernels
-from mbimpact.averaging.cone_pair import compile_kernels
+from mbimpact.averaging.cone_pair import KERNELS
 from mbimpact.common.geometry import DEGENERATE, facing_half_width_scalar, ring_quadratic_form
 from mbimpact.quadrature.rules import gauss_legendre
 
@@ -40,7 +40,7 @@ _PHASE = np.array([0.0, 0.0, math.pi / 2, 0.0, math.pi / 2])
 @pytest.fixture(autouse=True, scope="module")
 def _compiled() -> None:
     """Load (or, with a cold numba cache, compile: ~2 s) the kernel before the tests."""
-    compile_kernels()
+    KERNELS.compile()
 
 
 @functools.lru_cache(maxsize=4)
@@ -189,5 +189,5 @@ def test_only_a_single_impact_on_a_cone_imports_numba():
 
 
 def test_compile_kernels_reports_the_first_call_cost():
-    imported, jitted = compile_kernels()  # loaded already (the module fixture): nothing left to pay
+    imported, jitted = KERNELS.compile()  # loaded already (the module fixture): nothing left to pay
     assert 0.0 <= imported < 0.05 and 0.0 <= jitted < 0.05

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 import mbimpact as mbi
 from mbimpact.averaging import Adaptive, ConePair
-from mbimpact.averaging.cone_pair import compile_kernels
+from mbimpact.averaging.cone_pair import KERNELS
 from mbimpact.averaging.kernels import relative_change, rule_average
 
 from tests.helpers import impulses, mechanism, relative_du, spd, unit_velocities
@@ -21,7 +21,7 @@ EPS = np.finfo(float).eps
 @pytest.fixture(autouse=True, scope="module")
 def _compiled() -> None:
     """Load (or, with a cold numba cache, compile: ~2 s) the kernel before the tests."""
-    compile_kernels()
+    KERNELS.compile()
 
 
 @given(st.integers(0, 2**32 - 1), st.floats(0.01, 1.55), st.sampled_from(["configuration", "physical"]),

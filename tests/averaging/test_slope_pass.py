@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 
 import mbimpact as mbi
 from mbimpact.averaging import Adaptive, SlopePass
-from mbimpact.averaging.slope_pass import FIRST_LEVELS, compile_kernels
+from mbimpact.averaging.slope_pass import FIRST_LEVELS, KERNELS
 from mbimpact.errors import AccuracyWarning, NoFacingFacetError, ParameterError
 from mbimpact.roughness.slopes import GaussianTiltDensity
 
@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(autouse=True, scope="module")
 def _compiled() -> None:
     """Load (or, with a cold numba cache, compile: ~10 s) the kernels before the tests."""
-    compile_kernels()
+    KERNELS.compile()
 
 
 def velocities(rng: np.random.Generator, d: int, count: int) -> np.ndarray:

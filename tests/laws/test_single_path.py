@@ -1,4 +1,4 @@
-"""The single-impact paths (ImpactLaw._single_impulse, NewtonLaw.apply_metric) against the batch pipeline.
+"""The single-impact paths (the compiled route of ImpactLaw.apply_metric, NewtonLaw's closed form) against the batch pipeline.
 
 A single impact skips the array machinery of :meth:`ImpactLaw.impulses` (checks, scalings and the
 outcome in two compiled calls); for the contact velocity it reports, its impulse must be the batch
