@@ -74,20 +74,18 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
             rows += overhead(robots, min_time, progress)
         elif part == "batch":
             rows += batch(batch_robots, 5_000 if quick else 100_000, progress)
-        elif part == "configurations":
+        elif part in ("configurations", "geometry"):
             with warnings.catch_warnings():
                 # random configurations and velocities: the cone leaves some contacts approaching (κ < 0),
                 # which is physics to report in an impact, and noise in a timing table
                 warnings.simplefilter("ignore", NoSeparationWarning)
-                rows += configurations(quick, progress)
+                rows += configurations(quick, progress) if part == "configurations" else gap_queries(min_time, progress)
         elif part == "coulomb":
             rows += coulomb(min_time, progress, quick)
         elif part == "threads":
             rows += threads(quick, progress)
         elif part == "import":
             rows += import_time(progress)
-        elif part == "geometry":
-            rows += gap_queries(min_time, progress)
         elif part == "scenes":
             rows += scene_throughput(scenes, progress)
         elif part == "mujoco":
