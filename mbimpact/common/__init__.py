@@ -13,7 +13,6 @@ from .geometry import (
     ring_quadratic_form,
     scaled_norm,
 )
-from .lazy import lazy
 from .threads import SINGLE_THREAD_ROWS, single_blas_thread
 from .validation import as_array, as_count, as_scalar, as_vector
 
@@ -26,7 +25,6 @@ __all__ = [
     "offset_point_jacobian",
     "ring_quadratic_form",
     "scaled_norm",
-    "lazy",
     "SINGLE_THREAD_ROWS",
     "single_blas_thread",
     "as_array",

@@ -94,17 +94,13 @@ class MassFactor:
 
     def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
         """A⁻¹ b for b of shape (nv,) or (nv, k)."""
-        mech = self.mechanism
-        local = mech.workspace()
-        if getattr(local, "token", None) != self.token:
-            self._data()
+        model, data, solve = self.mechanism.model, self._data(), pin.cholesky.solve
         if b.ndim == 1:
-            return pin.cholesky.solve(mech.model, local.data, b)
+            return solve(model, data, b)
         if not b.shape[1]:
             return np.zeros(b.shape)
         # one solve per column, assembled in one copy and returned as its transposed view (Fortran order:
         # every consumer multiplies it, which BLAS does in either order, and a C copy costs more than that)
-        model, data, solve = mech.model, local.data, pin.cholesky.solve
         return np.array([solve(model, data, col) for col in b.T]).T
 
 

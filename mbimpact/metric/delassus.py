@@ -17,13 +17,12 @@ import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.compiled import KernelModule
-from ..common.lazy import lazy
 from ..common.validation import as_array
 from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 
@@ -40,6 +39,37 @@ _SYMMETRY_RTOL = 1e-9
 
 # The largest float: a Delassus matrix, or a bound on it, beyond it has overflowed.
 _FMAX = sys.float_info.max
+
+_T = TypeVar("_T")
+
+
+class _lazy(Generic[_T]):  # noqa: N801 — used as a decorator, like functools.cached_property
+    """``functools.cached_property`` without its lock (Python 3.11 takes one on every first access,
+    which costs a single impact more than the product it caches): computed on first access, then
+    stored in the instance ``__dict__``, which shadows this non-data descriptor from then on.
+
+    Frozen dataclasses may use it: it writes the instance ``__dict__`` directly, not through
+    ``__setattr__``. A value the constructor already put in ``__dict__`` is never recomputed.
+    """
+
+    def __init__(self, fn: Callable[[Any], _T]) -> None:
+        self.fn, self.name, self.__doc__ = fn, fn.__name__, fn.__doc__
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> _lazy[_T]: ...
+
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> _T: ...
+
+    def __get__(self, obj: object | None, owner: type | None = None) -> _lazy[_T] | _T:
+        if obj is None:
+            return self
+        value = obj.__dict__[self.name] = self.fn(obj)
+        return value
+
 
 @dataclass(frozen=True, eq=False)
 class ContactMetric:
@@ -179,7 +209,7 @@ class ContactMetric:
         # A⁻¹Jᵀ and W in one compiled call on Pinocchio's factor (what d + 2 Python-level calls cost
         # a single impact several times over); an overflow leaves them to the lazy route, which names it
         U, D = factor.arrays()
-        Yt, W, finite = KERNELS.get().delassus(U, D, J if J.flags.c_contiguous else np.ascontiguousarray(J))
+        Yt, W, finite = KERNELS.get().delassus(U, D, J)  # any layout: the kernel's signature takes it
         if finite:
             Yt.setflags(write=False)
             W.setflags(write=False)
@@ -190,13 +220,13 @@ class ContactMetric:
         """A⁻¹ b for b of shape (n,) or (n, k)."""
         return self.solver(b)
 
-    @lazy
+    @_lazy
     def AinvJt(self) -> NDArray[np.float64]:  # noqa: N802 — the paper's notation
         out = self.solver(self.J.T)  # Jᵀ as a view: its columns are the contiguous rows of J
         out.setflags(write=False)
         return out
 
-    @lazy
+    @_lazy
     def W(self) -> NDArray[np.float64]:  # noqa: N802
         # J A⁻¹ Jᵀ of a finite J and A overflows for a large J or a small (or ill-conditioned) A. In floats
         # (they never warn), |W_ij| ≤ n max|J| max|A⁻¹Jᵀ|: below _FMAX / 18 the product cannot overflow
@@ -227,7 +257,7 @@ class ContactMetric:
         out.setflags(write=False)
         return out
 
-    @lazy
+    @_lazy
     def range_projector(self) -> NDArray[np.float64] | None:
         """Orthogonal projector onto range(W), or None when W has full rank."""
         W = self.W
