@@ -15,6 +15,7 @@ Entry points: :meth:`ImpactLaw.apply` and :meth:`ImpactLaw.apply_batch` on array
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from types import ModuleType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -35,6 +36,8 @@ if TYPE_CHECKING:
 
 __all__ = ["ImpactLaw"]
 
+# det W / (tr W)³ at or below which W counts as rank-deficient: the general route projects P on range(W)
+_RANK_FLOOR = 1e-12
 
 
 class ImpactLaw(ABC):
@@ -153,9 +156,22 @@ class ImpactLaw(ABC):
         """The impact of a mechanism at a validated state (q, v), contact Jacobian ``J`` (d, nv) and
         contact frame ``R`` (d, d): the metric of A(q) (stage 2), then :meth:`apply_metric`.
 
-        :func:`mbimpact.impact` calls this; a law with a counterpart in Pinocchio overrides it
-        (:class:`NewtonLaw`: ``pin.impulseDynamics``).
+        :func:`mbimpact.impact` calls this. A spatial impact of a law that keeps this pipeline runs it
+        compiled on Pinocchio's factor of A(q) (:func:`mbimpact.metric.kernels.prepare_factor`), with
+        the same checks, scalings and impulse as :meth:`apply_metric`, to rounding; the cases that
+        route declines (no approach, n⁰ out of reach, a rank-deficient W, magnitudes that overflow, a
+        singular A) take :meth:`apply_metric`, which names or treats them. A law with a counterpart
+        in Pinocchio overrides this (:class:`NewtonLaw`: ``pin.impulseDynamics``).
         """
+        if len(R) == 3 and self._compiled_route():
+            kernels = METRIC_KERNELS.get()
+            A, U, D = mech.factor_arrays(q)
+            buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
+            status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, _RANK_FLOOR, buffer)
+            if status == kernels.READY:
+                A.setflags(write=False)
+                J.setflags(write=False)
+                return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
@@ -187,34 +203,37 @@ class ImpactLaw(ABC):
     def _compiled_single(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]
                          ) -> ImpactResult | None:
         """:meth:`apply_metric` for one spatial impact, its arithmetic around the law compiled
-        (:func:`mbimpact.metric.kernels.contact_state` and :func:`~mbimpact.metric.kernels.outcome`):
+        (:func:`mbimpact.metric.kernels.prepare_metric` and :func:`~mbimpact.metric.kernels.finish`):
         the same checks, scalings and impulse as :meth:`impulses` for the contact velocity it reports
         (to the last bit in a world-aligned contact frame, to rounding in another), in two calls
         instead of some thirty on 3-vectors. None for what the general route treats: no approach,
         n⁰ out of reach, a rank-deficient W."""
         kernels = METRIC_KERNELS.get()
-        W = metric.W
-        status, u, W_local, U_local, speed, w_scale = kernels.contact_state(metric.J, v, W, R, DEGENERATE, 1e-12)
+        buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
+        status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
+                                                        _RANK_FLOOR, buffer)
         if status:
             if status == kernels.U_NOT_FINITE:
-                check_in_range("the contact velocity J v", u)
+                n = len(v)
+                check_in_range("the contact velocity J v", buffer[3 * n + 3:3 * n + 6])
             if status == kernels.SPEED_INF:
                 raise NonFiniteError("the magnitude |u| of the contact velocity: beyond the float range (inf); "
                                      "the inputs are finite but too large together (rescale the velocities)")
             return None
+        return self._finish_single(kernels, metric.A, metric.J, R, buffer, speed, w_scale)
+
+    def _finish_single(self, kernels: ModuleType, A: NDArray[np.float64], J: NDArray[np.float64],
+                       R: NDArray[np.float64], buffer: NDArray[np.float64], speed: float, w_scale: float
+                       ) -> ImpactResult:
+        """The law and the outcome (1.1) of a spatial impact that a ``prepare_*`` kernel made ready in
+        ``buffer``, and the result made of that buffer (:meth:`ImpactResult.from_buffer`)."""
+        W_local, U_local = kernels.local_views(buffer, J.shape[1])
         out = self.contact_impulses(W_local, U_local)
-        n = len(v)
-        buffer = np.empty(6 + 2 * n)
-        finite = kernels.outcome(out.P, R, speed / w_scale, metric.AinvJt.T, W, u, v, buffer)
-        P, u_plus, dv, v_plus = buffer[:3], buffer[3:6], buffer[6:6 + n], buffer[6 + n:]
+        finite, un_plus = kernels.finish(out.P, R, speed / w_scale, buffer)
+        result = ImpactResult.from_buffer(buffer, A, J, self, float(out.error[0]), out.nodes, out.method)
         if not finite:
-            check_in_range("the impact's outcome (P, v₊ or u₊)", P, v_plus, u_plus)
-        n0 = R[:, -1].copy()
-        result = ImpactResult(
-            v_minus=v.copy(), v_plus=v_plus, dv=dv, P=P, u_minus=u, u_plus=u_plus, n0=n0, A=metric.A, J=metric.J,
-            law=self, error_estimate=float(out.error[0]), nodes=out.nodes, method=out.method,
-        )
-        if not float(n0.dot(u_plus)) >= -SEPARATION_RTOL * speed:
+            check_in_range("the impact's outcome (P, v₊ or u₊)", result.P, result.v_plus, result.u_plus)
+        if not un_plus >= -SEPARATION_RTOL * speed:
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
                  f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
         return result
@@ -228,6 +247,11 @@ class ImpactLaw(ABC):
         """Whether :meth:`apply_metric` may take :meth:`_compiled_single`: only while :meth:`impulses` is
         this class's own (a law that overrides it keeps its own route)."""
         return type(self).impulses is ImpactLaw.impulses
+
+    def _compiled_route(self) -> bool:
+        """Whether :meth:`apply_mechanism` may run the spatial impact compiled on Pinocchio's factor: only
+        while :meth:`apply_metric` is this class's own and would take :meth:`_compiled_single`."""
+        return type(self).apply_metric is ImpactLaw.apply_metric and self._single_route() and self.dim in (None, 3)
 
     def apply(self, A: ArrayLike, J: ArrayLike, v: ArrayLike, frame: ArrayLike) -> ImpactResult:
         """Post-impact state for mass matrix ``A``, contact Jacobian ``J``, velocity ``v``.

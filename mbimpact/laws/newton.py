@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
 from ..metric.basis import local_basis
+from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from .base import ImpactLaw
@@ -22,9 +23,6 @@ if TYPE_CHECKING:
 __all__ = ["NewtonLaw"]
 
 _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and products of two cannot overflow
-# Magnitudes below which the route through Pinocchio cannot overflow: squares and products of three
-# stay below 1e240, and sums over a few hundred coordinates below the float range
-_MODERATE = 1e80
 
 
 class NewtonLaw(ImpactLaw):
@@ -57,41 +55,24 @@ class NewtonLaw(ImpactLaw):
 
     def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
                         J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
-        """:meth:`apply_metric` without the metric: Newton's impulse needs A⁻¹ along n⁰ᵀJ only
-        (:meth:`Mechanism.solve_along`, one solve with Pinocchio's factor), and its checks are a few
-        floats. The same arithmetic as the closed form of :meth:`apply_metric`, to the last bit.
+        """:meth:`apply_metric` without the metric: Newton's impulse needs A⁻¹ along n⁰ᵀJ only, one
+        solve with Pinocchio's factor of A(q), and the whole impact is one compiled call on it
+        (:func:`mbimpact.metric.kernels.newton`), the closed form of :meth:`apply_metric` to rounding.
 
-        The degenerate cases (no approach, n⁰ out of reach, A(q) not positive definite) and extreme
-        magnitudes take the general route, which names them or treats them; so does a subclass that
-        overrides :meth:`apply_metric`.
+        The degenerate cases (no approach, n⁰ out of reach, A(q) not positive definite) and
+        magnitudes that overflow take the general route, which names them or treats them; so does a
+        subclass that overrides :meth:`apply_metric`.
         """
-        if type(self).apply_metric is not NewtonLaw.apply_metric:
-            return super().apply_mechanism(mech, q, v, J, R)
-        n0 = R[:, -1]
-        # squares in Python floats (they never warn: an overflow is inf): below _MODERATE², no product
-        # of the route can overflow, and the route needs no numpy error state
-        flat = J.ravel().tolist()
-        jj = sum([x * x for x in flat])
-        if not (jj < _MODERATE * _MODERATE and sum([x * x for x in v.tolist()]) < _MODERATE * _MODERATE):
-            return super().apply_mechanism(mech, q, v, J, R)
-        jn = n0.dot(J)
-        un = float(jn.dot(v))
-        if not (un < 0.0 and float(jn.dot(jn)) > 1e-8 * jj):  # no approach, or n⁰ out of reach
-            return super().apply_mechanism(mech, q, v, J, R)
-        A, y, valid = mech.solve_along(q, jn)
-        wnn = float(jn.dot(y))
-        Pn = -(1.0 + self.e) * un / wnn if wnn > 0.0 else math.inf
-        # |Δv| = P_n |y| and |J Δv| ≤ |J| |Δv| below _MODERATE²: nothing below can overflow
-        if not (valid and Pn * Pn * float(y.dot(y)) * (1.0 + jj) < _MODERATE * _MODERATE):
-            return super().apply_mechanism(mech, q, v, J, R)
-        dv = Pn * y
-        u = J.dot(v)
-        A.setflags(write=False)
-        J.setflags(write=False)
-        return ImpactResult(
-            v_minus=v.copy(), v_plus=v + dv, dv=dv, P=Pn * n0, u_minus=u, u_plus=u + J.dot(dv), n0=n0.copy(),
-            A=A, J=J, law=self,
-        )
+        if type(self).apply_metric is NewtonLaw.apply_metric:
+            kernels = METRIC_KERNELS.get()
+            A, U, D = mech.factor_arrays(q)
+            d = len(R)
+            buffer = np.empty(3 * len(v) + 4 * d)
+            if kernels.newton(U, D, J, v, R, self.e, buffer):
+                A.setflags(write=False)
+                J.setflags(write=False)
+                return ImpactResult.from_buffer(buffer, A, J, self)
+        return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with

@@ -139,7 +139,8 @@ class Mechanism:
         then the Cholesky factor, then a solve) never sees another thread's intermediate state."""
         local = self._local
         if getattr(local, "data", None) is None:
-            local.data = self.model.createData()
+            local.data = data = self.model.createData()
+            local.U, local.D = data.U, data.D  # views of the factor's memory, which Pinocchio never moves
         return local
 
     @property
@@ -351,26 +352,31 @@ class Mechanism:
         local.token = token = next(_TOKENS)
         return A, MassFactor(self, q.copy(), token, _pivots_valid(data))
 
-    def solve_along(self, q: NDArray[np.float64], b: NDArray[np.float64]
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
-        """A(q) and A(q)⁻¹ b for a validated ``q`` and one vector ``b`` (nv,): what Newton's law needs
-        (b = Jᵀn⁰), by the sparse Cholesky factor that ``pin.impulseDynamics`` uses.
+    def factor_arrays(self, q: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """A(q) and its sparse Cholesky factor A = U D Uᵀ (``pin.cholesky``, what
+        ``pin.impulseDynamics`` uses) for a validated ``q``, as arrays: what the compiled single-impact
+        routes read (:mod:`mbimpact.metric.kernels`).
 
         Returns
         -------
         A : ndarray, shape (nv, nv)
-            A(q) from ``pin.crba``, full symmetric.
-        y : ndarray, shape (nv,)
-            A⁻¹ b (meaningless when not ``valid``).
-        valid : bool
-            A(q) is positive definite (see :attr:`MassFactor.valid`).
+            A(q) from ``pin.crba``, full symmetric, the caller's own copy.
+        U : ndarray, shape (nv, nv)
+            Unit upper triangular factor.
+        D : ndarray, shape (nv,)
+            Pivots (all finite and > 0 if and only if A(q) is positive definite).
+
+        ``U`` and ``D`` are views of this thread's workspace, valid until the next call on this
+        mechanism in this thread: read them at once.
         """
         local = self.workspace()
-        model, data = self.model, local.data
-        A = pin.crba(model, data, q).copy()
-        pin.cholesky.decompose(model, data)
+        A = pin.crba(self.model, local.data, q)
+        if A.base is not None:  # Pinocchio 4 hands back its own copy; a view of the workspace must be copied
+            A = A.copy()
+        pin.cholesky.decompose(self.model, local.data)
         local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
-        return A, pin.cholesky.solve(model, data, b), _pivots_valid(data)
+        return A, local.U, local.D
 
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""

@@ -21,9 +21,12 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-__all__ = ["delassus", "contact_state", "outcome", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF"]
+__all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
+           "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF"]
 
-# status codes of :func:`contact_state`
+#: Status codes of :func:`prepare_factor` and :func:`prepare_metric`: the law may run; the general
+#: route treats or names the case (no approach, n⁰ out of reach, a rank-deficient or overflowing W, a
+#: singular A); J v is not finite; |u| overflows.
 READY, DECLINED, U_NOT_FINITE, SPEED_INF = 0, 1, 2, 3
 
 # Explicit signatures, compiled (or loaded from the cache) on import: read-only arrays of any layout, so
@@ -31,13 +34,85 @@ READY, DECLINED, U_NOT_FINITE, SPEED_INF = 0, 1, 2, 3
 # read-only v); numba would otherwise compile a specialisation, for seconds, at the first call of each.
 _IN1, _IN2 = types.Array(types.float64, 1, "A", readonly=True), types.Array(types.float64, 2, "A", readonly=True)
 _OUT1, _OUT2 = types.float64[::1], types.float64[:, ::1]
+_F = types.float64
 _DELASSUS = types.Tuple((_OUT2, _OUT2, types.boolean))(_IN2, _IN1, _IN2)
-_STATE = types.Tuple((types.int64, _OUT1, _OUT2, _OUT2, types.float64, types.float64))(
-    _IN2, _IN1, _IN2, _IN2, types.float64, types.float64)
-_OUTCOME = types.boolean(_IN2, _IN2, types.float64, _IN2, _IN2, _IN1, _IN1, _OUT1)
+_PREPARE_FACTOR = types.Tuple((types.int64, _F, _F))(_IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _OUT1)
+_PREPARE_METRIC = types.Tuple((types.int64, _F, _F))(_IN2, _IN2, _IN2, _IN1, _IN2, _F, _F, _OUT1)
+_FINISH = types.Tuple((types.boolean, _F))(_IN2, _IN2, _F, _OUT1)
+_NEWTON = types.boolean(_IN2, _IN1, _IN2, _IN1, _IN2, _F, _OUT1)
 
 # half the largest float: a W whose |W_ij| sum below it cannot overflow in any sum the laws form
 _HALF_MAX = 0.5 * 1.7976931348623157e308
+
+
+# ---------------------------------------------------------------------------------------------------
+# The buffer of one impact. Its head is the result, in the order ImpactResult.from_buffer reads it:
+# v₋, v₊, Δv (n each), P, u₋, u₊, n⁰ (d each). A spatial impact of a rough law then keeps its work
+# there too: W, W_local (9 each), U_local (3) and A⁻¹Jᵀ as (3, n) rows. One buffer, because every
+# array a compiled function hands back costs a single impact more than a view of a buffer does.
+def single_size(n: int) -> int:
+    """Length of the buffer of one spatial impact of a mechanism with ``n`` velocities: 6n + 33."""
+    return 6 * n + 33
+
+
+def local_views(buffer: NDArray[np.float64], n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """W_local (3, 3) and U_local (1, 3), as :func:`prepare_factor` and :func:`prepare_metric` leave
+    them in ``buffer``: what the law takes (:meth:`mbimpact.ImpactLaw.contact_impulses`)."""
+    w = 3 * n + 21
+    return buffer[w:w + 9].reshape(3, 3), buffer[w + 9:w + 12].reshape(1, 3)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _solve(U: NDArray[np.float64], D: NDArray[np.float64], y: NDArray[np.float64]) -> None:  # pragma: no cover
+    """y ← A⁻¹ y for A = U D Uᵀ (U unit upper triangular): U z = y, z / D, Uᵀ x = z, in place."""
+    n = y.shape[0]
+    for i in range(n - 1, -1, -1):  # back substitution, unit diagonal
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= U[i, k] * y[k]
+        y[i] = s
+    for i in range(n):
+        y[i] /= D[i]
+    for i in range(n):  # forward substitution, unit diagonal
+        s = y[i]
+        for k in range(i):
+            s -= U[k, i] * y[k]
+        y[i] = s
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _pivots_valid(D: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
+    """Every pivot finite and > 0: A positive definite."""
+    for i in range(D.shape[0]):
+        if not (D[i] > 0.0 and D[i] < math.inf):
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _delassus_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64],
+                   Yt: NDArray[np.float64], W: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
+    """:func:`delassus` into flat arrays: Yt (d n,) row after row, W (d d,)."""
+    d, n = J.shape
+    for r in range(d):
+        y = Yt[r * n:(r + 1) * n]
+        for k in range(n):
+            y[k] = J[r, k]
+        _solve(U, D, y)
+    total, check = 0.0, 0.0
+    for a in range(d):
+        for b in range(a, d):
+            s, t = 0.0, 0.0
+            for k in range(n):
+                s += J[a, k] * Yt[b * n + k]
+                t += J[b, k] * Yt[a * n + k]
+            w = 0.5 * (s + t)
+            W[a * d + b] = w
+            W[b * d + a] = w
+            total += abs(w) * (1.0 if a == b else 2.0)
+    for k in range(d * n):
+        check += Yt[k]
+    return math.isfinite(check) and total < _HALF_MAX
 
 
 @njit(_DELASSUS, cache=True, error_model="numpy")
@@ -65,159 +140,238 @@ def delassus(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float
         float (else the caller names the overflow).
     """
     d, n = J.shape
-    Yt = np.empty((d, n))
-    for r in range(d):
-        y = Yt[r]
-        for i in range(n - 1, -1, -1):  # U y = J_r: back substitution, unit diagonal
-            s = J[r, i]
-            for k in range(i + 1, n):
-                s -= U[i, k] * y[k]
-            y[i] = s
-        for i in range(n):
-            y[i] /= D[i]
-        for i in range(n):  # Uᵀ x = z: forward substitution, unit diagonal
-            s = y[i]
-            for k in range(i):
-                s -= U[k, i] * y[k]
-            y[i] = s
-    W = np.empty((d, d))
-    total, check = 0.0, 0.0
-    for a in range(d):
-        for b in range(a, d):
-            s, t = 0.0, 0.0
-            for k in range(n):
-                s += J[a, k] * Yt[b, k]
-                t += J[b, k] * Yt[a, k]
-            w = 0.5 * (s + t)
-            W[a, b] = w
-            W[b, a] = w
-            total += abs(w) * (1.0 if a == b else 2.0)
-    for r in range(d):
+    Yt, W = np.empty(d * n), np.empty(d * d)
+    finite = _delassus_into(U, D, J, Yt, W)
+    return Yt.reshape((d, n)), W.reshape((d, d)), finite
+
+
+@njit(cache=True, error_model="numpy")
+def _state(J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64], degenerate: float,
+           rank_floor: float, buf: NDArray[np.float64]) -> tuple[int, float, float]:  # pragma: no cover — compiled
+    """The state of one spatial impact as every law takes it, from the W and A⁻¹Jᵀ already in ``buf``:
+    v₋, u₋ = J v, n⁰, W_local = Rᵀ W R / tr(Rᵀ W R) and U_local = uᵀR / |u| (see :func:`prepare_factor`)."""
+    n = v.shape[0]
+    o = 3 * n  # P, then u₋ at o + 3, u₊ at o + 6, n⁰ at o + 9, W at o + 12, W_local at o + 21, U_local at o + 30
+    for k in range(n):
+        buf[k] = v[k]
+    n0, n1, n2 = R[0, 2], R[1, 2], R[2, 2]
+    buf[o + 9], buf[o + 10], buf[o + 11] = n0, n1, n2
+    for i in range(3):
+        s = 0.0
         for k in range(n):
-            check += Yt[r, k]
-    finite = math.isfinite(check) and total < _HALF_MAX
-    return Yt, W, finite
+            s += J[i, k] * v[k]
+        buf[o + 3 + i] = s
+    u0, u1, u2 = buf[o + 3], buf[o + 4], buf[o + 5]
+    if not math.isfinite(u0 + u1 + u2):
+        return U_NOT_FINITE, 0.0, 0.0
+    if not u0 * n0 + u1 * n1 + u2 * n2 < 0.0:
+        return DECLINED, 0.0, 0.0
+    W = buf[o + 12:o + 21]
+    tr = 0.0 + W[0] + W[4] + W[8]
+    wnn = (n0 * (W[0] * n0 + W[1] * n1 + W[2] * n2) + n1 * (W[3] * n0 + W[4] * n1 + W[5] * n2)
+           + n2 * (W[6] * n0 + W[7] * n1 + W[8] * n2))
+    if not (tr > 0.0 and wnn > degenerate * tr):
+        return DECLINED, 0.0, 0.0
+    a, b, c, d, e, f, g, h, k = (W[0] / tr, W[1] / tr, W[2] / tr, W[3] / tr, W[4] / tr, W[5] / tr,
+                                 W[6] / tr, W[7] / tr, W[8] / tr)
+    if not a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) > rank_floor:
+        return DECLINED, 0.0, 0.0
+    big = max(abs(u0), abs(u1), abs(u2))
+    t0, t1, t2 = u0 / big, u1 / big, u2 / big
+    speed = big * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    if speed == math.inf:
+        return SPEED_INF, speed, 0.0
+    Wl = buf[o + 21:o + 30]
+    for i in range(3):  # Rᵀ W R (exact when R is the identity)
+        for j in range(3):
+            s = 0.0
+            for p in range(3):
+                s += R[p, i] * (W[3 * p] * R[0, j] + W[3 * p + 1] * R[1, j] + W[3 * p + 2] * R[2, j])
+            Wl[3 * i + j] = s
+    w_scale = Wl[0] + Wl[4] + Wl[8]
+    for i in range(9):
+        Wl[i] /= w_scale
+    for i in range(3):
+        buf[o + 30 + i] = (u0 * R[0, i] + u1 * R[1, i] + u2 * R[2, i]) / speed
+    return READY, speed, w_scale
 
 
-@njit(_STATE, cache=True, error_model="numpy")
-def contact_state(J: NDArray[np.float64], v: NDArray[np.float64], W: NDArray[np.float64], R: NDArray[np.float64],
-                  degenerate: float, rank_floor: float
-                  ) -> tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float, float
-                             ]:  # pragma: no cover — compiled
-    """One spatial impact in the form every law takes it: unit speed, W of unit trace, local frame.
+@njit(_PREPARE_FACTOR, cache=True, error_model="numpy")
+def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
+                   R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
+                   ) -> tuple[int, float, float]:  # pragma: no cover — compiled
+    """One spatial impact of a mechanism, up to the law: the metric from Pinocchio's factor of A(q)
+    (as :func:`delassus`) and the state the laws take, unit speed, W of unit trace, local frame.
 
     The laws are homogeneous of degree 1 in u and −1 in W (1°), so they see u / |u| and
     Rᵀ W R / tr W whatever the units and scale of the mechanism (no over- or underflow inside them).
 
     Parameters
     ----------
+    U, D : ndarray, shapes (n, n), (n,)
+        The factor A = U D Uᵀ (Pinocchio's ``data.U``, ``data.D``, read in place).
     J : ndarray, shape (3, n)
     v : ndarray, shape (n,)
-    W : ndarray, shape (3, 3)
-        Delassus matrix (world-aligned).
     R : ndarray, shape (3, 3)
         Contact frame, last column n⁰.
     degenerate : float
         n⁰ᵀWn⁰ ≤ degenerate · tr W means n⁰ is out of reach.
     rank_floor : float
         det W / (tr W)³ ≤ rank_floor means W is (nearly) rank-deficient.
+    buf : ndarray, shape (6n + 33,)
+        Filled with v₋, u₋ = J v and n⁰ at their places in the result (:func:`single_size`), and
+        with W, W_local (:func:`local_views`), U_local and A⁻¹Jᵀ after it.
 
     Returns
     -------
     status : int
-        :data:`READY`; :data:`DECLINED` for what the general route treats or names (no approach, n⁰
-        out of reach, a rank-deficient W); :data:`U_NOT_FINITE`; :data:`SPEED_INF` (|u| overflows).
-    u : ndarray, shape (3,)
-        Contact velocity J v.
-    W_local : ndarray, shape (3, 3)
-        Rᵀ W R / tr(Rᵀ W R).
-    U_local : ndarray, shape (1, 3)
-        uᵀR / |u|.
+        :data:`READY`; :data:`DECLINED` for what the general route treats or names (A(q) not
+        positive definite, W overflowing, no approach, n⁰ out of reach, a rank-deficient W);
+        :data:`U_NOT_FINITE`; :data:`SPEED_INF` (|u| overflows).
     speed, w_scale : float
         |u| and tr(Rᵀ W R).
     """
     n = v.shape[0]
-    u = np.empty(3)
-    Wl = np.empty((3, 3))
-    Ul = np.empty((1, 3))
+    if not _pivots_valid(D):
+        return DECLINED, 0.0, 0.0
+    o = 3 * n + 12
+    if not _delassus_into(U, D, J, buf[o + 21:o + 21 + 3 * n], buf[o:o + 9]):
+        return DECLINED, 0.0, 0.0
+    return _state(J, v, R, degenerate, rank_floor, buf)
+
+
+@njit(_PREPARE_METRIC, cache=True, error_model="numpy")
+def prepare_metric(Yt: NDArray[np.float64], W: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
+                   R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
+                   ) -> tuple[int, float, float]:  # pragma: no cover — compiled
+    """:func:`prepare_factor` for a metric whose (A⁻¹Jᵀ)ᵀ ``Yt`` (3, n) and W (3, 3) are known
+    (:class:`mbimpact.metric.ContactMetric`): they are copied into ``buf``, the rest is the same."""
+    n = v.shape[0]
+    o = 3 * n + 12
     for i in range(3):
-        s = 0.0
+        for j in range(3):
+            buf[o + 3 * i + j] = W[i, j]
         for k in range(n):
-            s += J[i, k] * v[k]
-        u[i] = s
-    if not math.isfinite(u[0] + u[1] + u[2]):
-        return U_NOT_FINITE, u, Wl, Ul, 0.0, 0.0
-    n0, n1, n2 = R[0, 2], R[1, 2], R[2, 2]
-    if not u[0] * n0 + u[1] * n1 + u[2] * n2 < 0.0:
-        return DECLINED, u, Wl, Ul, 0.0, 0.0
-    tr = 0.0 + W[0, 0] + W[1, 1] + W[2, 2]
-    wnn = (n0 * (W[0, 0] * n0 + W[0, 1] * n1 + W[0, 2] * n2) + n1 * (W[1, 0] * n0 + W[1, 1] * n1 + W[1, 2] * n2)
-           + n2 * (W[2, 0] * n0 + W[2, 1] * n1 + W[2, 2] * n2))
-    if not (tr > 0.0 and wnn > degenerate * tr):
-        return DECLINED, u, Wl, Ul, 0.0, 0.0
-    a, b, c, d, e, f, g, h, k = (W[0, 0] / tr, W[0, 1] / tr, W[0, 2] / tr, W[1, 0] / tr, W[1, 1] / tr, W[1, 2] / tr,
-                                 W[2, 0] / tr, W[2, 1] / tr, W[2, 2] / tr)
-    if not a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) > rank_floor:
-        return DECLINED, u, Wl, Ul, 0.0, 0.0
-    big = max(abs(u[0]), abs(u[1]), abs(u[2]))
-    t0, t1, t2 = u[0] / big, u[1] / big, u[2] / big
-    speed = big * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-    if speed == math.inf:
-        return SPEED_INF, u, Wl, Ul, speed, 0.0
-    for i in range(3):  # Rᵀ W R (exact when R is the identity)
-        for j in range(3):
-            s = 0.0
-            for p in range(3):
-                s += R[p, i] * (W[p, 0] * R[0, j] + W[p, 1] * R[1, j] + W[p, 2] * R[2, j])
-            Wl[i, j] = s
-    w_scale = Wl[0, 0] + Wl[1, 1] + Wl[2, 2]
-    for i in range(3):
-        for j in range(3):
-            Wl[i, j] /= w_scale
-        Ul[0, i] = (u[0] * R[0, i] + u[1] * R[1, i] + u[2] * R[2, i]) / speed
-    return READY, u, Wl, Ul, speed, w_scale
+            buf[o + 21 + i * n + k] = Yt[i, k]
+    return _state(J, v, R, degenerate, rank_floor, buf)
 
 
-@njit(_OUTCOME, cache=True, error_model="numpy")
-def outcome(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, Yt: NDArray[np.float64],
-            W: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.float64], out: NDArray[np.float64]
-            ) -> bool:  # pragma: no cover — compiled
+@njit(_FINISH, cache=True, error_model="numpy")
+def finish(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, buf: NDArray[np.float64]
+           ) -> tuple[bool, float]:  # pragma: no cover — compiled
     """The impact's outcome by Lagrange's equations (1.1) from a law's local unit impulse.
 
     Parameters
     ----------
     P_local : ndarray, shape (1, 3)
-        The law's impulse for the unit velocity and unit-trace W of :func:`contact_state`.
+        The law's impulse for the unit velocity and unit-trace W of :func:`prepare_factor`.
     R : ndarray, shape (3, 3)
     scale : float
         |u| / tr(RᵀWR): the impulse of the physical u and W (homogeneity, 1°).
-    Yt : ndarray, shape (3, n)
-        (A⁻¹Jᵀ)ᵀ.
-    W : ndarray, shape (3, 3)
-    u, v : ndarray, shapes (3,), (n,)
-    out : ndarray, shape (6 + 2n,)
-        Filled with P = R P_local · scale (world-aligned contact impulse), u₊ = u + W P, Δv = A⁻¹JᵀP
-        and v₊ = v + Δv, in this order (one buffer: an array returned by a compiled function costs
-        more to hand back to Python than a view costs to take).
+    buf : ndarray, shape (6n + 33,)
+        As :func:`prepare_factor` left it; filled with P = R P_local · scale (world-aligned contact
+        impulse), u₊ = u₋ + W P, Δv = A⁻¹JᵀP and v₊ = v₋ + Δv at their places in the result.
+
+    Returns
+    -------
+    finite : bool
+        Whether every entry of P, v₊ and u₊ is finite.
+    un_plus : float
+        n⁰ · u₊, the normal contact velocity after the impact.
+    """
+    n = (buf.shape[0] - 33) // 6
+    o = 3 * n
+    for i in range(3):
+        buf[o + i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
+    p0, p1, p2 = buf[o], buf[o + 1], buf[o + 2]
+    total = 0.0 + p0 + p1 + p2
+    W = buf[o + 12:o + 21]
+    un_plus = 0.0
+    for i in range(3):
+        x = buf[o + 3 + i] + (W[3 * i] * p0 + W[3 * i + 1] * p1 + W[3 * i + 2] * p2)
+        buf[o + 6 + i] = x
+        total += x
+        un_plus += buf[o + 9 + i] * x
+    y = o + 33
+    for k in range(n):
+        x = buf[y + k] * p0 + buf[y + n + k] * p1 + buf[y + 2 * n + k] * p2
+        buf[2 * n + k] = x
+        buf[n + k] = buf[k] + x
+        total += buf[n + k]
+    return math.isfinite(total), un_plus
+
+
+@njit(_NEWTON, cache=True, error_model="numpy")
+def newton(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
+           R: NDArray[np.float64], e: float, buf: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
+    """Newton's impact (1.2) of a mechanism, whole: Δv = P_n y with y = A⁻¹ Jᵀn⁰ by Pinocchio's factor
+    (what ``pin.impulseDynamics`` solves) and P_n = −(1 + e) n⁰ᵀJ v / (n⁰ᵀJ y).
+
+    Parameters
+    ----------
+    U, D : ndarray, shapes (n, n), (n,)
+        The factor A = U D Uᵀ.
+    J : ndarray, shape (d, n)
+    v : ndarray, shape (n,)
+    R : ndarray, shape (d, d)
+        Contact frame, last column n⁰.
+    e : float
+        Restitution.
+    buf : ndarray, shape (3n + 4d,) at least
+        Filled with the result: v₋, v₊, Δv, P, u₋, u₊, n⁰.
 
     Returns
     -------
     bool
-        Whether every entry of P, v₊ and u₊ is finite.
+        Whether the result is filled; False for what the general route treats or names: A(q) not
+        positive definite, no approach, n⁰ out of reach (|n⁰ᵀJ|² ≤ 1e-8 |J|²), or a quantity that
+        overflows. A (nearly) rank-deficient J stays here: Newton's impulse is P_n n⁰ whatever the
+        rank, and Δv = P_n y is exact.
     """
-    n = v.shape[0]
-    for i in range(3):
-        out[i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
-    p0, p1, p2 = out[0], out[1], out[2]
-    total = 0.0
-    for i in range(3):
-        out[3 + i] = u[i] + (W[i, 0] * p0 + W[i, 1] * p1 + W[i, 2] * p2)
-        total += out[3 + i] + out[i]
+    d, n = J.shape
+    if not _pivots_valid(D):
+        return False
+    o = 3 * n
+    jn = buf[n:2 * n]  # n⁰ᵀJ, in the place of v₊ until that is computed
+    y = buf[2 * n:3 * n]  # A⁻¹ Jᵀn⁰, then Δv in place
+    jj, un, jnjn = 0.0, 0.0, 0.0
     for k in range(n):
-        x = Yt[0, k] * p0 + Yt[1, k] * p1 + Yt[2, k] * p2
-        out[6 + k] = x
-        out[6 + n + k] = v[k] + x
-        total += out[6 + n + k]
+        s = 0.0
+        for i in range(d):
+            x = J[i, k]
+            jj += x * x
+            s += R[i, d - 1] * x
+        jn[k] = s
+        y[k] = s
+        un += s * v[k]
+        jnjn += s * s
+    if not (un < 0.0 and jj < math.inf and jnjn > 1e-8 * jj):
+        return False
+    _solve(U, D, y)
+    wnn = 0.0
+    for k in range(n):
+        wnn += jn[k] * y[k]
+    if not wnn > 0.0:
+        return False
+    Pn = -(1.0 + e) * un / wnn
+    total = Pn
+    for k in range(n):
+        x = Pn * y[k]
+        y[k] = x
+        buf[k] = v[k]
+        buf[n + k] = v[k] + x
+        total += buf[n + k]
+    for i in range(d):
+        ni = R[i, d - 1]
+        buf[o + i] = Pn * ni
+        buf[o + 3 * d + i] = ni
+        s, t = 0.0, 0.0
+        for k in range(n):
+            s += J[i, k] * v[k]
+            t += J[i, k] * y[k]
+        buf[o + d + i] = s
+        buf[o + 2 * d + i] = s + t
+        total += s + t
     return math.isfinite(total)
 
 
@@ -225,8 +379,11 @@ def jit_seconds() -> float:
     """Wall time of one call of each kernel once the module is imported: ~0, since the import itself
     compiles the explicit signatures, or loads them from numba's on-disk cache."""
     start = time.perf_counter()
-    delassus(np.eye(2), np.ones(2), np.ones((1, 2)))
-    J, v, R = np.eye(3), -np.ones(3), np.eye(3)
-    _, u, Wl, Ul, speed, w_scale = contact_state(J, v, np.eye(3), R, 1e-14, 1e-12)
-    outcome(Ul, R, speed / w_scale, J, np.eye(3), u, v, np.empty(12))
+    U, D, J, v, R = np.eye(3), np.ones(3), np.eye(3), -np.ones(3), np.eye(3)
+    delassus(U, D, J)
+    buf = np.empty(single_size(3))
+    prepare_factor(U, D, J, v, R, 1e-14, 1e-12, buf)
+    status, speed, w_scale = prepare_metric(J, np.eye(3), J, v, R, 1e-14, 1e-12, buf)
+    finish(local_views(buf, 3)[1], R, speed / w_scale, buf)
+    newton(U, D, J, v, R, 0.5, buf)
     return time.perf_counter() - start

@@ -101,6 +101,35 @@ class ImpactResult:
         self.__dict__.update(v_minus=v_minus, v_plus=v_plus, dv=dv, P=P, u_minus=u_minus, u_plus=u_plus, n0=n0, A=A,
                              J=J, law=law, error_estimate=error_estimate, nodes=nodes, method=method)
 
+    @classmethod
+    def from_buffer(cls, buffer: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], law: Any,
+                    error_estimate: float = 0.0, nodes: int = 1, method: str = "closed-form") -> ImpactResult:
+        """The result whose vectors lie in one buffer, in the order of the attributes: ``v_minus``,
+        ``v_plus``, ``dv`` (n each), ``P``, ``u_minus``, ``u_plus``, ``n0`` (d each), with (d, n) the
+        shape of ``J``; anything after them is ignored.
+
+        The buffer is made read-only, and so are the views taken of it: one flag instead of one
+        an array (the compiled single-impact routes fill such a buffer,
+        :mod:`mbimpact.metric.kernels`). ``A`` and ``J`` are kept as given.
+
+        Parameters
+        ----------
+        buffer : ndarray, shape (3n + 4d + k,), k ≥ 0
+        A : ndarray, shape (n, n)
+        J : ndarray, shape (d, n)
+        law, error_estimate, nodes, method
+            As for the constructor.
+        """
+        d, n = J.shape
+        buffer.setflags(write=False)
+        o = 3 * n
+        self = cls.__new__(cls)
+        self.__dict__.update(v_minus=buffer[:n], v_plus=buffer[n:2 * n], dv=buffer[2 * n:o], P=buffer[o:o + d],
+                             u_minus=buffer[o + d:o + 2 * d], u_plus=buffer[o + 2 * d:o + 3 * d],
+                             n0=buffer[o + 3 * d:o + 4 * d], A=A, J=J, law=law, error_estimate=error_estimate,
+                             nodes=nodes, method=method)
+        return self
+
     @property
     def I(self) -> NDArray[np.float64]:  # noqa: E743, N802 — the paper's name
         """Generalised impulse I = A Δv = Jᵀ P, shape (n,), (1.1)."""
