@@ -79,6 +79,11 @@ class ImpactLaw(ABC):
             P (B, d) in the local frame, error estimates (B,), nodes, method.
         """
 
+    def single_impulse(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        """:meth:`contact_impulses` for one velocity, ``U`` of shape (1, d): what the compiled single
+        impacts call (:meth:`apply_mechanism`). A law with a cheaper path for one row overrides it."""
+        return self.contact_impulses(W, U)
+
     # ------------------------------------------------------------------ core
     def impulses(self, metric: ContactMetric, U: NDArray[np.float64], R: NDArray[np.float64]) -> ContactImpulses:
         """Contact impulses P (B, d), world frame, for contact velocities U (B, d).
@@ -228,7 +233,7 @@ class ImpactLaw(ABC):
         """The law and the outcome (1.1) of a spatial impact that a ``prepare_*`` kernel made ready in
         ``buffer``, and the result made of that buffer (:meth:`ImpactResult.from_buffer`)."""
         W_local, U_local = kernels.local_views(buffer, J.shape[1])
-        out = self.contact_impulses(W_local, U_local)
+        out = self.single_impulse(W_local, U_local)
         finite, un_plus = kernels.finish(out.P, R, speed / w_scale, buffer)
         result = ImpactResult.from_buffer(buffer, A, J, self, float(out.error[0]), out.nodes, out.method)
         if not finite:

@@ -208,9 +208,26 @@ class CoulombLaw(ImpactLaw):
             raise self._failure(status, info, kernels)
         return ContactImpulses(P, error, max(1, steps), "impulse-space")
 
+    def single_impulse(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        """:meth:`contact_impulses` for one unit velocity ``U`` (1, 3) at a unit-trace ``W`` (3, 3), local
+        frame: one compiled call (:meth:`_single`) without the batch's arrays."""
+        single = self._single(W.tolist(), U[0].tolist())
+        if single is None:  # n⁰ out of reach or W rank-deficient by _single's own rounding: the batch names it
+            return self.contact_impulses(W, U)
+        p1, p2, pn, steps, scale, _ = single
+        return ContactImpulses(np.array([[p1 * scale, p2 * scale, pn * scale]]),
+                               np.array([self.rtol if steps else 0.0]), max(steps, 1), "impulse-space")
+
+    def _compiled_route(self) -> bool:
+        # apply_metric below is ImpactLaw's pipeline in floats: a mechanism's spatial impact may take the
+        # compiled route instead, unless a subclass overrides apply_metric
+        return type(self).apply_metric is CoulombLaw.apply_metric and type(self).impulses is ImpactLaw.impulses
+
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         """:meth:`ImpactLaw.apply_metric` without the batch machinery: one impact in floats, and at most
-        one compiled call (:meth:`_single`).
+        one compiled call (:meth:`_single`); a closed form needs no compiled code at all. (A spatial
+        impact of a mechanism takes :meth:`ImpactLaw.apply_mechanism`'s compiled route instead, whose
+        law is :meth:`single_impulse`.)
 
         The degenerate cases (no approach, n⁰ out of reach, rank-deficient J) take the
         general route, which names the error or reports the minimum-norm impulse.

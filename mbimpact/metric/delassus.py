@@ -7,8 +7,8 @@ N_m = A⁻¹ Jᵀ m / √(mᵀ W m) with the Delassus matrix W = J A⁻¹ Jᵀ, 
 the impact laws need is therefore one factorisation of A, ``A⁻¹ Jᵀ`` and ``W``. On a
 mechanism, :meth:`ContactMetric.from_mechanism` computes the last two with the metric, in one
 compiled call on Pinocchio's factor (:mod:`mbimpact.metric.kernels`); on arrays they are
-computed on first use. (Newton's law on a mechanism needs A⁻¹ along one direction only and
-builds no metric: :meth:`mbimpact.NewtonLaw.apply_mechanism`.)
+computed on first use. (A single spatial impact of a mechanism builds no metric object: its
+compiled route works on the factor directly, :meth:`mbimpact.ImpactLaw.apply_mechanism`.)
 """
 
 from __future__ import annotations

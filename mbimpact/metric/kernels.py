@@ -1,4 +1,4 @@
-"""The compiled core of the contact metric: A⁻¹Jᵀ and W = J A⁻¹ Jᵀ from Pinocchio's factor of A(q).
+"""The compiled core of the contact metric and of one impact, on Pinocchio's factor of A(q).
 
 ``pin.cholesky.decompose`` leaves A = U D Uᵀ in the workspace (U unit upper triangular, D the
 pivots). One impact needs A⁻¹Jᵀ (d ≤ 3 solves) and the Delassus matrix W = J A⁻¹ Jᵀ; from Python
@@ -6,6 +6,12 @@ that is a Pinocchio call per column, an assembly and a product, each costing a s
 than its arithmetic. :func:`delassus` does all of it in one compiled call on the factor's own
 memory. The solves are the factor's triangular solves, as backward stable as Pinocchio's, so W
 is as accurate as with ``pin.cholesky.solve``.
+
+A single spatial impact runs whole in two calls around the law: :func:`prepare_factor` (or
+:func:`prepare_metric` for a metric already built) computes the metric, the checks and the state
+the laws take (unit speed, W of unit trace, local frame), and :func:`finish` the outcome (1.1).
+Both work in one buffer whose head is the result (:meth:`mbimpact.ImpactResult.from_buffer`).
+Newton's law needs no Delassus matrix: :func:`newton` is its whole impact, one solve along n⁰ᵀJ.
 
 Imported on first use only (:data:`mbimpact.metric.delassus.KERNELS`): numba costs ~0.3 s to
 import, and the import compiles the kernels' explicit signatures (or loads them from numba's disk

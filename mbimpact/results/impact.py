@@ -42,6 +42,11 @@ class ContactImpulses:
         self.__dict__.update(P=P, error=error, nodes=nodes, method=method)
 
 
+# where ImpactResult.from_buffer's vectors lie: (a, b, length) starts one at a·n + b·d, n or d long
+_IN_BUFFER = {"v_minus": (0, 0, "n"), "v_plus": (1, 0, "n"), "dv": (2, 0, "n"), "P": (3, 0, "d"),
+              "u_minus": (3, 1, "d"), "u_plus": (3, 2, "d"), "n0": (3, 3, "d")}
+
+
 @dataclass(frozen=True, eq=False)
 class ImpactResult:
     """Velocities and impulses of one impact, Lagrange's equations (1.1).
@@ -108,9 +113,10 @@ class ImpactResult:
         ``v_plus``, ``dv`` (n each), ``P``, ``u_minus``, ``u_plus``, ``n0`` (d each), with (d, n) the
         shape of ``J``; anything after them is ignored.
 
-        The buffer is made read-only, and so are the views taken of it: one flag instead of one
-        an array (the compiled single-impact routes fill such a buffer,
-        :mod:`mbimpact.metric.kernels`). ``A`` and ``J`` are kept as given.
+        The buffer becomes the result's own and is made read-only; each vector is a view of it,
+        taken on first access (the compiled single-impact routes fill such a buffer,
+        :mod:`mbimpact.metric.kernels`, and a caller pays for the views it reads). ``A`` and ``J``
+        are kept as given.
 
         Parameters
         ----------
@@ -120,15 +126,24 @@ class ImpactResult:
         law, error_estimate, nodes, method
             As for the constructor.
         """
-        d, n = J.shape
         buffer.setflags(write=False)
-        o = 3 * n
         self = cls.__new__(cls)
-        self.__dict__.update(v_minus=buffer[:n], v_plus=buffer[n:2 * n], dv=buffer[2 * n:o], P=buffer[o:o + d],
-                             u_minus=buffer[o + d:o + 2 * d], u_plus=buffer[o + 2 * d:o + 3 * d],
-                             n0=buffer[o + 3 * d:o + 4 * d], A=A, J=J, law=law, error_estimate=error_estimate,
-                             nodes=nodes, method=method)
+        self.__dict__.update(_buffer=buffer, A=A, J=J, law=law, error_estimate=error_estimate, nodes=nodes,
+                             method=method)
         return self
+
+    def __getattr__(self, name: str) -> Any:
+        # only reached for what the instance __dict__ lacks: a vector of from_buffer not read yet
+        place = _IN_BUFFER.get(name)
+        buffer = self.__dict__.get("_buffer")
+        if place is None or buffer is None:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        d, n = self.J.shape
+        a, b, length = place
+        start = a * n + b * d
+        view = buffer[start:start + (n if length == "n" else d)]
+        self.__dict__[name] = view
+        return view
 
     @property
     def I(self) -> NDArray[np.float64]:  # noqa: E743, N802 — the paper's name
