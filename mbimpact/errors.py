@@ -10,6 +10,7 @@ catches them when they are turned into errors.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import warnings
@@ -139,6 +140,13 @@ def warn(category: type[ImpactWarning], message: str) -> None:
     """
     frame: FrameType | None = sys._getframe(1)
     level = 2  # stacklevel 2 is the caller of this function
-    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(_PACKAGE):
+    while frame is not None and _inside(frame.f_code.co_filename):
         frame, level = frame.f_back, level + 1
     warnings.warn(message, category, stacklevel=level)
+
+
+@functools.lru_cache(maxsize=1024)
+def _inside(filename: str) -> bool:
+    """Whether a code object's file belongs to the package (cached: warnings in a loop of impacts
+    would otherwise resolve the same few paths on every call)."""
+    return os.path.abspath(filename).startswith(_PACKAGE)

@@ -9,6 +9,7 @@ name            what it does                                                   `
 ``tilt-table``  Chebyshev tables of a tilt density in the incidence (exact)     tilt densities, ≥ 1024 rows
 ``graded``      quadrature graded towards the peaks of a nearly singular W      a peak narrower than 0.15
 ``cone-pair``   a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
+``cone-pass``   a cone's whole adaptive rule in one compiled call               one velocity on a cone
 ``slope-pass``  a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
 ``fixed``       the measure's rule with ``nodes`` nodes                        ``nodes`` given
 ``adaptive``    the measure's rule doubled until ``rtol``                      otherwise
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 from .base import Averaging
 from .cone_pair import ConePair
+from .cone_pass import ConePass
 from .exact import Exact, MonteCarlo
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
@@ -44,6 +46,7 @@ __all__ = [
     "TiltTableMethod",
     "Graded",
     "ConePair",
+    "ConePass",
     "SlopePass",
     "Fixed",
     "Adaptive",
@@ -53,9 +56,9 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, SlopePass, Fixed, Adaptive, MonteCarlo)
+    for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive, MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "slope-pass", "fixed",
-                               "adaptive")
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "cone-pass", "slope-pass",
+                               "fixed", "adaptive")

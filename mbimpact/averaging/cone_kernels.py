@@ -30,56 +30,191 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["rule_table", "cone_pair", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING", "NOT_SETTLED"]
+__all__ = ["rule_table", "cone_pair", "cone_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
+           "NOT_SETTLED", "STALLED", "CAPPED"]
 
-# status codes of :func:`cone_pair`: the pair settles the velocity, or why it does not
-SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED = 0, 1, 2, 3
+# status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
+# (for cone_pass, STALLED and CAPPED are the adaptive rule's AccuracyWarning cases: rounding, max_nodes)
+SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED, STALLED, CAPPED = 0, 1, 2, 3, 4, 5
 
 # machine epsilon (a constant of float64, safe to freeze into the compiled code)
 _EPS = float(np.finfo(float).eps)
 
-# rows of the table of :func:`rule_table` (columns: the n coarse nodes, then the 2n fine ones)
+# rows of the table of :func:`rule_table` (columns: the nodes of each level in turn)
 _GL_NODE, _GL_WEIGHT, _RING_COS, _RING_SIN, _RING_WEIGHT = range(5)
 
 
-@functools.lru_cache(maxsize=16)
-def rule_table(n: int) -> NDArray[np.float64]:
-    """The nodes of both levels of :func:`cone_pair` for n coarse nodes (cached, read-only).
+@functools.lru_cache(maxsize=32)
+def rule_table(n: int, levels: int = 2) -> NDArray[np.float64]:
+    """The nodes of the levels n, 2n, …, 2^(levels−1) n of :func:`cone_pass` (cached, read-only).
 
     Parameters
     ----------
     n : int
-        Coarse node count.
+        Node count of the first level.
+    levels : int
+        Number of levels (2: the pair of :func:`cone_pair`).
 
     Returns
     -------
-    ndarray, shape (5, 3n)
-        Columns: the n coarse nodes, then the 2n fine ones. Rows: Gauss–Legendre nodes x on
-        [-1, 1] and weights / 2π (the arc θ = π + h x, weight h w / 2π); cos θ, sin θ and the weight
-        1/n or 1/2n of the periodic trapezoid rule θ = 2πj/n, 2πj/2n on the full ring.
+    ndarray, shape (5, n (2^levels − 1))
+        Columns: the n nodes of the first level, then the 2n of the second, and so on. Rows:
+        Gauss–Legendre nodes x on [-1, 1] and weights / 2π (the arc θ = π + h x, weight h w / 2π);
+        cos θ, sin θ and the weight 1/m of the periodic trapezoid rule θ = 2πj/m on the full ring
+        (m nodes at that level).
     """
-    (x1, w1), (x2, w2) = gauss_legendre(n), gauss_legendre(2 * n)
-    theta = np.concatenate([2 * math.pi * np.arange(n) / n, 2 * math.pi * np.arange(2 * n) / (2 * n)])
-    table = np.empty((5, 3 * n))
-    table[_GL_NODE] = np.concatenate([x1, x2])
-    table[_GL_WEIGHT] = np.concatenate([w1, w2]) / (2 * math.pi)
-    table[_RING_COS], table[_RING_SIN] = np.cos(theta), np.sin(theta)
-    table[_RING_WEIGHT, :n], table[_RING_WEIGHT, n:] = 1.0 / n, 1.0 / (2 * n)
+    counts = [n << k for k in range(levels)]
+    table = np.empty((5, sum(counts)))
+    start = 0
+    for m in counts:
+        x, w = gauss_legendre(m)
+        theta = 2 * math.pi * np.arange(m) / m
+        block = slice(start, start + m)
+        table[_GL_NODE, block], table[_GL_WEIGHT, block] = x, w / (2 * math.pi)
+        table[_RING_COS, block], table[_RING_SIN, block] = np.cos(theta), np.sin(theta)
+        table[_RING_WEIGHT, block] = 1.0 / m
+        start += m
     table.flags.writeable = False
     return table
 
 
-# One explicit signature, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
+# Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
 # that a caller's read-only or strided W or U does not make numba compile another specialisation
 _IN2 = types.Array(types.float64, 2, "A", readonly=True)
 _SIGNATURE = types.int64(types.float64, _IN2, _IN2, _IN2, types.boolean, types.float64, types.float64, types.float64,
                          types.float64[:, ::1], types.float64[::1])
+_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _IN2, types.int64, types.boolean, types.float64,
+                                       types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add(total: float, compensation: float, x: float) -> tuple[float, float]:  # pragma: no cover — compiled
+    """Neumaier's compensated sum: total + x, and the rounding error it made added to the compensation.
+
+    The levels run up to thousands of nodes; a plain running sum errs by ~ m ε, which the error
+    estimate of two levels amplified by |W| |P| / |W P| turns into a difference above rtol where
+    numpy's pairwise sums (what the adaptive rule adds with) stay at ~ ε log m."""
+    t = total + x
+    if abs(total) >= abs(x):
+        compensation += (total - t) + x
+    else:
+        compensation += (x - t) + total
+    return t, compensation
+
+
+@njit(cache=True, error_model="numpy")
+def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, s: float, c: float, ut: float,
+           uz: float, cp: float, sp: float, harmonics: tuple[float, float, float, float, float], floor: float,
+           configuration: bool, e: float, out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
+    """The impulse P = (1+e) N / D of one level (``m`` nodes from column ``start`` of the table) into
+    ``out`` (3,); 0, or the status that declines (a degenerate facet, no weight)."""
+    q0, a1, b1, a2, b2 = harmonics
+    d, k0, k1, k2 = 0.0, 0.0, 0.0, 0.0
+    ed, e0, e1, e2 = 0.0, 0.0, 0.0, 0.0  # their compensations
+    ct_prev = np.empty(m) if arc else np.empty(0)
+    st_prev = np.empty(m) if arc else np.empty(0)
+    for i in range(m):
+        j = start + i
+        if arc:  # the facing arc θ = π + h x: Gauss–Legendre nodes come in pairs x, −x (exactly)
+            mirror = m - 1 - i
+            if mirror < i:
+                ct, st = ct_prev[mirror], -st_prev[mirror]
+            else:
+                x = h * table[_GL_NODE, j]
+                ct, st = -math.cos(x), -math.sin(x)
+            ct_prev[i], st_prev[i] = ct, st
+            wt = h * table[_GL_WEIGHT, j]
+        else:  # the whole ring faces u: the periodic trapezoid rule from ψ
+            ct, st, wt = table[_RING_COS, j], table[_RING_SIN, j], table[_RING_WEIGHT, j]
+        q = q0 + a1 * ct + b1 * st + a2 * (ct * ct - st * st) + b2 * (2.0 * ct * st)
+        if not q > floor:
+            return DEGENERATE_FACET
+        # −mᵀu on the facing set, 0 off it (the trapezoid rule runs over the whole ring)
+        sweep = max(-(c * uz + s * ut * ct), 0.0)
+        if configuration:  # w = −mᵀu / √q, kernel (mᵀu)² / q^{3/2}
+            r = 1.0 / math.sqrt(q)
+            weight = sweep * r
+            kernel = weight * weight * r
+        else:  # w = −mᵀu, kernel (mᵀu)² / q
+            weight = sweep
+            kernel = sweep * sweep / q
+        d, ed = _add(d, ed, wt * weight)
+        k0, e0 = _add(k0, e0, wt * kernel)
+        k1, e1 = _add(k1, e1, wt * kernel * ct)
+        k2, e2 = _add(k2, e2, wt * kernel * st)
+    d, k0, k1, k2 = d + ed, k0 + e0, k1 + e1, k2 + e2
+    if not d > 0.0:
+        return NOT_FACING
+    # P = (1+e) N / D, m = (s (cos ψ cos θ − sin ψ sin θ), s (sin ψ cos θ + cos ψ sin θ), c)
+    f = (1.0 + e) / d
+    out[0] = f * s * (cp * k1 - sp * k2)
+    out[1] = f * s * (sp * k1 + cp * k2)
+    out[2] = f * c * k0
+    return 0
+
+
+@njit(cache=True, error_model="numpy")
+def _levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+            stall_checks: bool, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+            error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """The adaptive rule's levels n, 2n, … (at most ``levels``) for one velocity: (status, final
+    node count). With ``stall_checks``, :func:`mbimpact.averaging.refinement.refine`'s tests that
+    rounding stopped the refinement (STALLED) or that the next level would pass max_nodes (CAPPED)."""
+    n = table.shape[1] // ((1 << levels) - 1)
+    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    ut = math.hypot(ux, uy)
+    cp, sp = (ux / ut, uy / ut) if ut > 0.0 else (1.0, 0.0)
+    s, c = math.sin(alpha), math.cos(alpha)
+    arc = not s * ut <= c * -uz
+    h = math.pi - math.acos(min(1.0, c * -uz / (s * ut))) if arc else 0.0
+    # mᵀWm in the harmonics of φ, then of θ = φ − ψ
+    w00, w01, w02, w11, w12, w22 = W[0, 0], W[0, 1], W[0, 2], W[1, 1], W[1, 2], W[2, 2]
+    q0 = 0.5 * s * s * (w00 + w11) + c * c * w22
+    a1, b1 = 2.0 * s * c * w02, 2.0 * s * c * w12
+    a2, b2 = 0.5 * s * s * (w00 - w11), s * s * w01
+    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
+    a1, b1 = a1 * cp + b1 * sp, b1 * cp - a1 * sp
+    a2, b2 = a2 * c2 + b2 * s2, b2 * c2 - a2 * s2
+    harmonics = (q0, a1, b1, a2, b2)
+    floor = degenerate * (w00 + w11 + w22)
+    coarse, fine = np.empty(3), np.empty(3)
+    status = _level(0, n, table, arc, h, s, c, ut, uz, cp, sp, harmonics, floor, configuration, e, coarse)
+    if status:
+        return status, n
+    previous, start, m = math.inf, n, n
+    for _ in range(1, levels):
+        m *= 2
+        status = _level(start, m, table, arc, h, s, c, ut, uz, cp, sp, harmonics, floor, configuration, e, fine)
+        if status:
+            return status, m
+        start += m
+        # the relative difference of the two levels by the velocity change W P they produce (defined
+        # even when J is rank-deficient, where P is not); settled within rtol or the rounding floor
+        # 100 ε √m of the adaptive rule
+        diff, ref, norm = 0.0, 0.0, 0.0
+        for i in range(3):
+            wc = coarse[0] * W[0, i] + coarse[1] * W[1, i] + coarse[2] * W[2, i]
+            wf = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
+            diff += (wf - wc) ** 2
+            ref += wf * wf
+            norm += fine[i] * fine[i]
+        err = math.sqrt(diff / ref)
+        rounding = 100 * _EPS * math.sqrt(m)
+        if err <= max(rtol, rounding):
+            P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
+            error[0] = err
+            return SETTLED, m
+        if stall_checks and err <= rounding * (w00 + w11 + w22) * math.sqrt(norm / ref) and err > 0.1 * previous:
+            return STALLED, m  # rounding amplified by |W| |P| / |W P|: an ill-conditioned contact
+        previous = err
+        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
+    return (CAPPED if stall_checks else NOT_SETTLED), m
 
 
 @njit(_SIGNATURE, cache=True, error_model="numpy")
 def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
               configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-              error: NDArray[np.float64]) -> int:
+              error: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
     """(2.8) for one unit velocity on a cone at n and 2n nodes, and whether the pair settles it.
 
     Parameters
@@ -91,7 +226,7 @@ def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
     U : ndarray, shape (1, 3)
         Unit contact velocity u in the local frame, u_n < 0.
     table : ndarray, shape (5, 3n)
-        The nodes of both levels (:func:`rule_table`).
+        The nodes of both levels (:func:`rule_table` with ``levels=2``).
     configuration : bool
         The facet weight of (2.7): ``"configuration"`` (w = −mᵀu / √(mᵀWm), kernels
         (mᵀu)² / (mᵀWm)^{3/2} and −mᵀu / √(mᵀWm)) if True, else ``"physical"`` (w = −mᵀu,
@@ -119,88 +254,38 @@ def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
         masks it), :data:`NOT_FACING` (a level with no weight) or :data:`NOT_SETTLED` (the
         difference exceeds the tolerance).
     """
-    n = table.shape[1] // 3
-    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
-    ut = math.hypot(ux, uy)
-    cp, sp = (ux / ut, uy / ut) if ut > 0.0 else (1.0, 0.0)
-    s, c = math.sin(alpha), math.cos(alpha)
-    # the nodes θ of both levels, their cos θ, sin θ and weights
-    nodes = np.empty((3, 3 * n))
-    if s * ut <= c * -uz:  # the whole ring faces u: the periodic trapezoid rule from ψ
-        for j in range(3 * n):
-            nodes[0, j], nodes[1, j], nodes[2, j] = table[_RING_COS, j], table[_RING_SIN, j], table[_RING_WEIGHT, j]
-    else:  # the facing arc θ = π + h x: cos θ and sin θ change sign
-        h = math.pi - math.acos(min(1.0, c * -uz / (s * ut)))
-        for j in range(3 * n):
-            # Gauss–Legendre nodes come in pairs x, −x (exactly): half the cosines and sines
-            mirror = n - 1 - j if j < n else 4 * n - 1 - j
-            if mirror < j:
-                nodes[0, j], nodes[1, j] = nodes[0, mirror], -nodes[1, mirror]
-            else:
-                x = h * table[_GL_NODE, j]
-                nodes[0, j], nodes[1, j] = -math.cos(x), -math.sin(x)
-            nodes[2, j] = h * table[_GL_WEIGHT, j]
-    # mᵀWm in the harmonics of φ, then of θ = φ − ψ
-    w00, w01, w02, w11, w12, w22 = W[0, 0], W[0, 1], W[0, 2], W[1, 1], W[1, 2], W[2, 2]
-    q0 = 0.5 * s * s * (w00 + w11) + c * c * w22
-    a1, b1 = 2.0 * s * c * w02, 2.0 * s * c * w12
-    a2, b2 = 0.5 * s * s * (w00 - w11), s * s * w01
-    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
-    a1, b1 = a1 * cp + b1 * sp, b1 * cp - a1 * sp
-    a2, b2 = a2 * c2 + b2 * s2, b2 * c2 - a2 * s2
-    floor = degenerate * (w00 + w11 + w22)
-    levels = np.empty((2, 3))
-    for level in range(2):
-        # D and the moments Σ w k (1, cos θ, sin θ) of the kernel k of N, from which N follows
-        d, k0, k1, k2 = 0.0, 0.0, 0.0, 0.0
-        for j in range(0, n) if level == 0 else range(n, 3 * n):
-            ct, st, wt = nodes[0, j], nodes[1, j], nodes[2, j]
-            q = q0 + a1 * ct + b1 * st + a2 * (ct * ct - st * st) + b2 * (2.0 * ct * st)
-            if not q > floor:
-                return DEGENERATE_FACET
-            # −mᵀu on the facing set, 0 off it (the trapezoid rule runs over the whole ring)
-            sweep = max(-(c * uz + s * ut * ct), 0.0)
-            if configuration:  # w = −mᵀu / √q, kernel (mᵀu)² / q^{3/2}
-                r = 1.0 / math.sqrt(q)
-                weight = sweep * r
-                kernel = weight * weight * r
-            else:  # w = −mᵀu, kernel (mᵀu)² / q
-                weight = sweep
-                kernel = sweep * sweep / q
-            d += wt * weight
-            k0 += wt * kernel
-            k1 += wt * kernel * ct
-            k2 += wt * kernel * st
-        if not d > 0.0:
-            return NOT_FACING
-        # P = (1+e) N / D, m = (s (cos ψ cos θ − sin ψ sin θ), s (sin ψ cos θ + cos ψ sin θ), c)
-        f = (1.0 + e) / d
-        levels[level, 0] = f * s * (cp * k1 - sp * k2)
-        levels[level, 1] = f * s * (sp * k1 + cp * k2)
-        levels[level, 2] = f * c * k0
-    # the relative difference of the two levels by the velocity change W P they produce (defined
-    # even when J is rank-deficient, where P is not); settled within rtol or the rounding floor
-    # 100 ε √(2n) of the adaptive rule
-    diff, ref = 0.0, 0.0
-    for i in range(3):
-        coarse = levels[0, 0] * W[0, i] + levels[0, 1] * W[1, i] + levels[0, 2] * W[2, i]
-        fine = levels[1, 0] * W[0, i] + levels[1, 1] * W[1, i] + levels[1, 2] * W[2, i]
-        diff += (fine - coarse) ** 2
-        ref += fine * fine
-    err = math.sqrt(diff / ref)
-    if not err <= max(rtol, 100 * _EPS * math.sqrt(2 * n)):
-        return NOT_SETTLED
-    P[0, 0], P[0, 1], P[0, 2] = levels[1, 0], levels[1, 1], levels[1, 2]
-    error[0] = err
-    return SETTLED
+    return _levels(alpha, W, U, table, 2, False, configuration, e, rtol, degenerate, P, error)[0]
+
+
+@njit(_PASS, cache=True, error_model="numpy")
+def cone_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+              configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+              error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """The whole adaptive rule of (2.8) for one unit velocity on a cone: levels n, 2n, 4n, … until two
+    successive ones agree (:func:`mbimpact.averaging.refinement.refine`'s test and stopping rule).
+
+    Parameters are those of :func:`cone_pair`, with ``table`` from :func:`rule_table` for ``levels``
+    levels, every level that ``max_nodes`` allows.
+
+    Returns
+    -------
+    status : int
+        :data:`SETTLED` (``P`` and ``error`` are written); :data:`STALLED` or :data:`CAPPED` where the
+        adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified by an
+        ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET`, :data:`NOT_FACING`.
+    nodes : int
+        The node count of the last level computed.
+    """
+    return _levels(alpha, W, U, table, levels, True, configuration, e, rtol, degenerate, P, error)
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`cone_pair` callable in this process (numba's import excluded:
-    importing this module does it): its machine code loaded from numba's on-disk cache
-    (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The first
-    call pays it; later calls return near 0."""
+    """Wall time to make :func:`cone_pair` and :func:`cone_pass` callable in this process (numba's
+    import excluded: importing this module does it): their machine code loaded from numba's on-disk
+    cache (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The
+    first call pays it; later calls return near 0."""
     start = time.perf_counter()
-    cone_pair(0.4, np.eye(3) / 3.0, np.array([[0.6, 0.0, -0.8]]), rule_table(1), True, 0.5, 1e-12, 1e-14,
-              np.empty((1, 3)), np.empty(1))
+    args = (0.4, np.eye(3) / 3.0, np.array([[0.6, 0.0, -0.8]]))
+    cone_pair(*args, rule_table(1), True, 0.5, 1e-12, 1e-14, np.empty((1, 3)), np.empty(1))
+    cone_pass(*args, rule_table(1, 4), 4, True, 0.5, 1e-12, 1e-14, np.empty((1, 3)), np.empty(1))
     return time.perf_counter() - start

@@ -239,8 +239,9 @@ class ImpactLaw(ABC):
         if not finite:
             check_in_range("the impact's outcome (P, v₊ or u₊)", result.P, result.v_plus, result.u_plus)
         if not un_plus >= -SEPARATION_RTOL * speed:
+            kappa = -un_plus / float(result.n0.dot(result.u_minus))  # result.kappa, without its arrays
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
-                 f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
+                 f"(kappa = {kappa:.6g} < 0); {self.separation_advice()}")
         return result
 
     def separation_advice(self) -> str:

@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..averaging import AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, Fixed, Graded, SlopePass
+from ..averaging import AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, ConePass, Fixed, Graded, SlopePass
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
@@ -61,7 +61,7 @@ class RoughLaw(ImpactLaw):
         :class:`NewtonFacet` (the paper's, with every averaging method),
         :class:`CoulombFacet`, :class:`CompliantFacet`, :class:`HuntCrossleyFacet`
         (the quadrature methods only: ``exact``, ``fixed``, ``adaptive``, ``graded``,
-        ``monte-carlo``; naming ``ring``, ``tilt-table`` or ``cone-pair`` is a
+        ``monte-carlo``; naming ``ring``, ``tilt-table``, ``cone-pair`` or ``cone-pass`` is a
         :class:`ParameterError`). Results record the facet law in ``method``:
         ``"adaptive[coulomb]"`` (Newton facets keep the bare averaging name).
     flux : {"physical", "configuration"}
@@ -77,7 +77,7 @@ class RoughLaw(ImpactLaw):
     method : str, Averaging subclass or instance
         How the integrals of (2.8) are computed: ``"auto"`` (default) or a name of
         :data:`mbimpact.averaging.METHODS` (``"exact"``, ``"ring"``, ``"tilt-table"``,
-        ``"graded"``, ``"cone-pair"``, ``"fixed"``, ``"adaptive"``,
+        ``"graded"``, ``"cone-pair"``, ``"cone-pass"``, ``"slope-pass"``, ``"fixed"``, ``"adaptive"``,
         ``"monte-carlo"``). The result records which ran (``result.method``).
     rtol : float, optional
         Relative accuracy of the adaptive quadrature for measures that are not
@@ -119,7 +119,7 @@ class RoughLaw(ImpactLaw):
         ``repeat=True``: at most this many further applications of (2.8).
     repeat_budget : int
         ``repeat=True``: at most this many facets averaged for them, counted for the
-        quadratures refined in nodes a piece (fixed, adaptive, graded, cone-pair) by
+        quadratures refined in nodes a piece (fixed, adaptive, graded, cone-pair, cone-pass, slope-pass) by
         :meth:`Roughness.rule_size` (a :class:`GaussianSlopes` puts up to 60 n² facets on
         a velocity with a graded rule of n nodes a piece, 2 n² with its plain rule; a
         :class:`Cone` n). A contact still approaching at either limit is returned as it
@@ -162,7 +162,9 @@ class RoughLaw(ImpactLaw):
     the peaks by sinh maps (``"graded"``), converging with tens of nodes where a
     uniform rule needs 10⁵. Single velocities on a :class:`Cone` take the first
     adaptive pass in one compiled call (``"cone-pair"``; numba, loaded on first
-    use); batches at one W use closed-form expansions (``"ring"``, ``"tilt-table"``).
+    use), or, where it does not settle them (a strongly anisotropic W), every level
+    of the adaptive rule in one call (``"cone-pass"``); batches at one W use
+    closed-form expansions (``"ring"``, ``"tilt-table"``).
     """
 
     #: Upper bounds that keep a typo from turning into hours of work.
@@ -545,7 +547,7 @@ def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
 
 
 # the methods whose ``nodes`` count a quadrature rule's nodes a piece (Roughness.rule_size gives its facets)
-_REFINED = (Fixed, Adaptive, Graded, ConePair, SlopePass)
+_REFINED = (Fixed, Adaptive, Graded, ConePair, ConePass, SlopePass)
 
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}
