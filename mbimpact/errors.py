@@ -145,8 +145,17 @@ def warn(category: type[ImpactWarning], message: str) -> None:
     warnings.warn(message, category, stacklevel=level)
 
 
-@functools.lru_cache(maxsize=1024)
 def _inside(filename: str) -> bool:
-    """Whether a code object's file belongs to the package (cached: warnings in a loop of impacts
-    would otherwise resolve the same few paths on every call)."""
-    return os.path.abspath(filename).startswith(_PACKAGE)
+    """Whether a code object's file belongs to the package. Absolute paths are cached (warnings in a
+    loop of impacts would otherwise resolve the same few paths on every call); a relative one depends
+    on the working directory, and ``<string>``, ``<stdin>`` are never the package's."""
+    if filename.startswith("<"):
+        return False
+    if not os.path.isabs(filename):
+        return os.path.abspath(filename).startswith(_PACKAGE + os.sep)
+    return _inside_absolute(filename)
+
+
+@functools.lru_cache(maxsize=1024)
+def _inside_absolute(filename: str) -> bool:
+    return os.path.normpath(filename).startswith(_PACKAGE + os.sep)

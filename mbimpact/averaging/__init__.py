@@ -7,6 +7,7 @@ name            what it does                                                   `
 ``exact``       finite sum over a finite facet set                             finite measures
 ``ring``        Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
 ``tilt-table``  Chebyshev tables of a tilt density in the incidence (exact)     tilt densities, ≥ 1024 rows
+``graded-pass`` ``graded`` for one velocity on a cone, in one compiled call    one velocity on a cone, a peak < 0.15
 ``graded``      quadrature graded towards the peaks of a nearly singular W      a peak narrower than 0.15
 ``cone-pair``   a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
 ``cone-pass``   a cone's whole adaptive rule in one compiled call               one velocity on a cone
@@ -28,6 +29,7 @@ from .base import Averaging
 from .cone_pair import ConePair
 from .cone_pass import ConePass
 from .exact import Exact, MonteCarlo
+from .graded_pass import GradedPass
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
 from .ring import Ring
@@ -45,6 +47,7 @@ __all__ = [
     "Ring",
     "TiltTableMethod",
     "Graded",
+    "GradedPass",
     "ConePair",
     "ConePass",
     "SlopePass",
@@ -56,9 +59,10 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive, MonteCarlo)
+    for cls in (Exact, Ring, TiltTableMethod, GradedPass, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive,
+                MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded", "cone-pair", "cone-pass", "slope-pass",
-                               "fixed", "adaptive")
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-pass", "graded", "cone-pair", "cone-pass",
+                               "slope-pass", "fixed", "adaptive")

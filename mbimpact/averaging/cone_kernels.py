@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["rule_table", "cone_pair", "cone_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
-           "NOT_SETTLED", "STALLED", "CAPPED"]
+__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
+           "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
 
 # status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
 # (for cone_pass, STALLED and CAPPED are the adaptive rule's AccuracyWarning cases: rounding, max_nodes)
@@ -88,12 +88,14 @@ _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _IN2, types.in
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _add(total: float, compensation: float, x: float) -> tuple[float, float]:  # pragma: no cover — compiled
-    """Neumaier's compensated sum: total + x, and the rounding error it made added to the compensation.
+def compensated_add(total: float, compensation: float, x: float) -> tuple[float, float]:  # pragma: no cover
+    """Neumaier's compensated sum: total + x, and the rounding error it made added to the compensation
+    (the sum is total + compensation at the end).
 
-    The levels run up to thousands of nodes; a plain running sum errs by ~ m ε, which the error
-    estimate of two levels amplified by |W| |P| / |W P| turns into a difference above rtol where
-    numpy's pairwise sums (what the adaptive rule adds with) stay at ~ ε log m."""
+    The compiled adaptive rules (:func:`cone_pass`, :func:`mbimpact.averaging.graded_kernels.graded_pass`)
+    sum levels of thousands of nodes; a plain running sum errs by ~ m ε, which the error estimate of
+    two levels, amplified by |W| |P| / |W P|, turns into a difference above rtol where numpy's pairwise
+    sums (what the adaptive rule adds with) stay at ~ ε log m."""
     t = total + x
     if abs(total) >= abs(x):
         compensation += (total - t) + x
@@ -138,10 +140,10 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
         else:  # w = −mᵀu, kernel (mᵀu)² / q
             weight = sweep
             kernel = sweep * sweep / q
-        d, ed = _add(d, ed, wt * weight)
-        k0, e0 = _add(k0, e0, wt * kernel)
-        k1, e1 = _add(k1, e1, wt * kernel * ct)
-        k2, e2 = _add(k2, e2, wt * kernel * st)
+        d, ed = compensated_add(d, ed, wt * weight)
+        k0, e0 = compensated_add(k0, e0, wt * kernel)
+        k1, e1 = compensated_add(k1, e1, wt * kernel * ct)
+        k2, e2 = compensated_add(k2, e2, wt * kernel * st)
     d, k0, k1, k2 = d + ed, k0 + e0, k1 + e1, k2 + e2
     if not d > 0.0:
         return NOT_FACING

@@ -7,8 +7,10 @@ the rule needs more levels (128 nodes and more); in numpy each level costs its a
 :class:`ConePass` runs all of them in one call of
 :func:`mbimpact.averaging.cone_kernels.cone_pass`: the same nodes, error estimate and stopping
 rule as :func:`mbimpact.averaging.refinement.refine`, so its result is the adaptive rule's up to
-rounding. It declines where the adaptive rule would warn (rounding or ``max_nodes`` stopped it
-short of rtol): ``"adaptive"`` then runs and says so.
+rounding. It declines where it cannot reach rtol itself (rounding or ``max_nodes`` stops it short):
+``"adaptive"`` then runs and says so. Its level sums are compensated, so that on an
+ill-conditioned W it may settle, to rounding, where the adaptive rule's pairwise sums stall and
+warn (and then a level earlier or later than it).
 """
 
 from __future__ import annotations
@@ -30,8 +32,8 @@ __all__ = ["ConePass"]
 class ConePass(Averaging):
     """One velocity on a :class:`~mbimpact.Cone`: the adaptive rule (n, 2n, 4n, … azimuth nodes
     until two levels agree to rtol) in one compiled call
-    (:func:`mbimpact.averaging.cone_kernels.cone_pass`). Declines where ``"adaptive"`` would
-    warn, or on a node where the mechanism cannot push the facet. Chosen by ``"auto"`` for
+    (:func:`mbimpact.averaging.cone_kernels.cone_pass`). Declines where it stops short of rtol
+    (rounding, ``max_nodes``), or on a node where the mechanism cannot push the facet. Chosen by ``"auto"`` for
     single velocities without a fixed node count, after ``"cone-pair"``."""
 
     name: ClassVar[str] = "cone-pass"

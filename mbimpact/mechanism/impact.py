@@ -64,8 +64,16 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     if type(mech) is not Mechanism or not isinstance(contact, Contact) or not isinstance(law, ImpactLaw):
         _check_parts(mech, contact, law)
     q, v = mech.check_state(q, v)
-    J, R = contact.jacobian(mech, q, law.dim or 3)
+    d = law.dim or 3
+    J, R = contact.jacobian(mech, q, d)
+    if J.shape != (d, mech.nv) or R.shape != (d, d):  # a user's Contact subclass: the laws' kernels trust shapes
+        _bad_shapes(contact, J, R, d, mech.nv)
     return law.apply_mechanism(mech, q, v, J, R)
+
+
+def _bad_shapes(contact: Contact, J: NDArray[np.float64], R: NDArray[np.float64], d: int, nv: int) -> None:
+    raise ShapeError(f"{type(contact).__name__}.jacobian must return J of shape ({d}, {nv}) and a frame R of shape "
+                     f"({d}, {d}); got {J.shape} and {R.shape}")
 
 
 def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, law: ImpactLaw) -> BatchResult:
@@ -109,6 +117,8 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
         return None
     d = law.dim or 3
     J0, R0 = contact.jacobian(mech, mech.check_configuration(Q[0]), d)
+    if J0.shape != (d, mech.nv) or R0.shape != (d, d):
+        _bad_shapes(contact, J0, R0, d, mech.nv)
     B, n = len(Q), mech.nv
     A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row

@@ -139,8 +139,7 @@ class Mechanism:
         then the Cholesky factor, then a solve) never sees another thread's intermediate state."""
         local = self._local
         if getattr(local, "data", None) is None:
-            local.data = data = self.model.createData()
-            local.U, local.D = data.U, data.D  # views of the factor's memory, which Pinocchio never moves
+            local.data = self.model.createData()
         return local
 
     @property
@@ -371,10 +370,13 @@ class Mechanism:
         mechanism in this thread: read them at once.
         """
         local = self.workspace()
-        A = pin.crba(self.model, local.data, q)
-        if A.base is not None:  # Pinocchio 4 hands back its own copy; a view of the workspace must be copied
+        data = local.data
+        if getattr(local, "factor_of", None) is not data:  # views of the factor's memory, which Pinocchio
+            local.U, local.D, local.factor_of = data.U, data.D, data  # never moves; kept with their Data
+        A = pin.crba(self.model, data, q)
+        if not A.flags.owndata:  # Pinocchio 4 hands back its own copy; a view of the workspace must be copied
             A = A.copy()
-        pin.cholesky.decompose(self.model, local.data)
+        pin.cholesky.decompose(self.model, data)
         local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
         return A, local.U, local.D
 

@@ -231,3 +231,43 @@ def test_a_contact_that_keeps_approaching_warns_on_the_compiled_route():
         found |= warned
     assert found
 
+
+
+def test_factor_arrays_follow_a_workspace_whose_data_was_replaced():
+    """The cached views of the factor belong to one Pinocchio Data: after the workspace's Data is
+    replaced, they are taken of the new one (the old memory may be freed)."""
+    mech = mbi.Mechanism.from_robot("ur5")  # its own workspace, not the session's shared mechanism
+    rng = np.random.default_rng(8)
+    q1, q2 = mech.random_configuration(rng), mech.random_configuration(rng)
+    mech.factor_arrays(q1)
+    mech.workspace().data = mech.model.createData()
+    A, U, D = mech.factor_arrays(q2)
+    np.testing.assert_allclose(U @ np.diag(D) @ U.T, A, rtol=0, atol=1e-12 * np.abs(A).max())
+    assert np.shares_memory(U, mech.data.U)
+    J = mech.point_jacobian(q2, "tool0")
+    v = np.linalg.lstsq(J, [0.3, 0.1, -1.0], rcond=None)[0]
+    law = LAWS["cone"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        res = mbi.impact(mech, q2, v, mbi.PointContact("tool0"), law)
+        ref = law.apply(mech.mass_matrix(q2), J, v, [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(res.P, ref.P, rtol=1e-9)
+
+
+@pytest.mark.parametrize("law_name", ["newton", "cone", "coulomb sliding"])
+@pytest.mark.parametrize("bad", ["column short", "two rows"])
+def test_a_contact_returning_wrong_shapes_is_named(law_name, bad):
+    """A user's Contact whose jacobian returns J or R of the wrong shape: ShapeError naming both shapes,
+    before any compiled code reads them (impact and impact_batch)."""
+
+    class Broken(mbi.PointContact):
+        def jacobian(self, mech, q, d=3):
+            J, R = super().jacobian(mech, q, d)
+            return (J[:, :-1], R) if bad == "column short" else (J[:2], R)
+
+    mech, q, v, contact, J, R = _state("ur5", 2, False)
+    broken = Broken(contact.frame)
+    with pytest.raises(mbi.ShapeError, match=r"Broken.jacobian must return J of shape \(3, 6\)"):
+        mbi.impact(mech, q, v, broken, LAWS[law_name])
+    with pytest.raises(mbi.ShapeError, match="Broken.jacobian"):
+        mbi.impact_batch(mech, np.stack([q, q]), np.stack([v, v]), broken, LAWS[law_name])

@@ -152,3 +152,25 @@ def test_micro_impacts_trapped_in_a_valley_stop_the_contact_point():
             total, v = total + res.P, res.v_plus
             assert not res.separates and res.kappa < 0
     np.testing.assert_allclose(total, rep.P, rtol=1e-9)
+
+
+def test_warnings_name_the_callers_file_whatever_its_path(tmp_path, monkeypatch):
+    """A warning is attributed to the first frame outside the package: code compiled from a string is
+    outside it, and a relative file name is resolved against the working directory of each warning
+    (not of the first one)."""
+    import os
+
+    law, env = mbi.RoughLaw(mbi.Cone(1.2), 0.1), {"I3": I3, "N0": N0}
+    env["law"] = law
+    with pytest.warns(mbi.NoSeparationWarning) as caught:
+        exec(compile("law.apply(I3, I3, [0.0, 0.0, -1.0], N0)", "<user code>", "exec"), env)
+    assert caught[0].filename == "<user code>"
+    relative = compile("law.apply(I3, I3, [0.0, 0.0, -1.0], N0)", "zz_user.py", "exec")
+    monkeypatch.chdir(os.path.dirname(mbi.__file__))  # "zz_user.py" would be a file of the package here
+    with pytest.warns(mbi.NoSeparationWarning) as caught:
+        exec(relative, env)
+    assert caught[0].filename == __file__
+    monkeypatch.chdir(tmp_path)  # and the user's own file here
+    with pytest.warns(mbi.NoSeparationWarning) as caught:
+        exec(relative, env)
+    assert caught[0].filename == "zz_user.py"

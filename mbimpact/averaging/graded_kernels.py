@@ -1,0 +1,371 @@
+"""The compiled core of :class:`~mbimpact.averaging.GradedPass`: a cone's graded rule for one velocity, in one call.
+
+A nearly singular Delassus matrix W makes q(φ) = m(φ)ᵀ W m(φ) small near its minima on the ring
+of facets, and the kernels of (2.8) with the flux weights of (2.7) peak there with widths ε ≪ 1.
+:class:`~mbimpact.averaging.Graded` then integrates with the graded rule of
+:func:`mbimpact.quadrature.graded.graded_azimuth_rule` and refines it as
+:func:`mbimpact.averaging.refinement.refine` does; in numpy each level costs its array operations.
+:func:`graded_pass` does all of it on floats: the minima of q and their widths
+(:func:`mbimpact.quadrature.graded.ring_minima`, with :meth:`mbimpact.Cone.graded_rule`'s test that
+the ring has a narrow peak), the facing interval cut at the minima inside it, every piece halved
+and each half mapped by φ = a ± ε sinh t onto its graded end a, Gauss–Legendre in t, and the
+levels n, 2n, 4n, … nodes a piece with the adaptive rule's error estimate and stopping rule. Its
+result is :class:`~mbimpact.averaging.Graded`'s to rounding.
+
+The module is imported on first use only (numba costs ~0.3 s to import:
+:data:`mbimpact.averaging.graded_pass.KERNELS`). Run with ``NUMBA_DISABLE_JIT=1``, the same source
+runs interpreted.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+
+import numpy as np
+from numba import njit, types
+from numpy.typing import NDArray
+
+from ..quadrature.rules import gauss_legendre
+from .cone_kernels import compensated_add
+
+__all__ = ["rule_table", "ring_peaks", "graded_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
+           "NOT_PEAKED", "STALLED", "CAPPED"]
+
+# status codes of :func:`graded_pass`: the velocity is settled to rtol, or why not (STALLED and CAPPED are
+# the adaptive rule's AccuracyWarning cases: rounding amplified by an ill-conditioned W, max_nodes)
+SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, STALLED, CAPPED = 0, 1, 2, 3, 4, 5
+
+# machine epsilon (a constant of float64, safe to freeze into the compiled code)
+_EPS = float(np.finfo(float).eps)
+
+# Newton on q' = 0 stops at this many ε of the rounding of q'/q'' (ring_minima's _NEWTON_ROUNDING)
+_NEWTON_ROUNDING = 16.0
+
+# the widths below which :meth:`mbimpact.Cone.graded_rule` gives up: q_min / q_max ≲ 1e-14, facets the
+# mechanism cannot push, around which the flux weight is not integrable (grading cannot help)
+_NARROWEST = 1e-7
+
+# The 64-point grid of ring_minima and ring_width_bound, computed by numpy as they compute it (frozen into
+# the compiled code as constants): rows cos φ, sin φ, cos 2φ, sin 2φ (ring_minima), and the sines as
+# ring_width_bound's table has them, cos(φ − π/2) and cos(2φ − π/2).
+_GRID_ANGLES = 2 * np.pi * np.arange(64) / 64
+_GRID = np.ascontiguousarray(np.vstack([
+    np.cos(_GRID_ANGLES), np.sin(_GRID_ANGLES), np.cos(2 * _GRID_ANGLES), np.sin(2 * _GRID_ANGLES),
+    np.cos(_GRID_ANGLES - np.pi / 2), np.cos(2 * _GRID_ANGLES - np.pi / 2),
+]))
+_GRID.flags.writeable = False
+
+# rows of the table of :func:`rule_table` (columns: the nodes of each level in turn)
+_GL_NODE_PLUS_ONE, _GL_WEIGHT = range(2)
+
+
+@functools.lru_cache(maxsize=32)
+def rule_table(n: int, levels: int) -> NDArray[np.float64]:
+    """Gauss–Legendre nodes of the levels n, 2n, …, 2^(levels−1) n nodes a piece (cached, read-only).
+
+    Parameters
+    ----------
+    n : int
+        Node count a piece of the first level.
+    levels : int
+        Number of levels.
+
+    Returns
+    -------
+    ndarray, shape (2, n (2^levels − 1))
+        Columns: the n nodes of the first level, then the 2n of the second, and so on. Rows: x + 1
+        for the Gauss–Legendre nodes x on [−1, 1] (the map t = T (x + 1) / 2 of every half-piece,
+        as :func:`~mbimpact.quadrature.graded.graded_azimuth_rule` forms it), and their weights.
+    """
+    counts = [n << k for k in range(levels)]
+    table = np.empty((2, sum(counts)))
+    start = 0
+    for m in counts:
+        x, w = gauss_legendre(m)
+        table[_GL_NODE_PLUS_ONE, start:start + m], table[_GL_WEIGHT, start:start + m] = x + 1.0, w
+        start += m
+    table.flags.writeable = False
+    return table
+
+
+# Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
+# that a caller's read-only or strided W or U does not make numba compile another specialisation
+_IN2 = types.Array(types.float64, 2, "A", readonly=True)
+_PEAKS = types.int64(types.float64, _IN2, types.float64)
+_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _IN2, types.int64, types.float64, types.boolean,
+                                       types.float64, types.float64, types.float64, types.float64[:, ::1],
+                                       types.float64[::1])
+
+
+@njit(cache=True, error_model="numpy")
+def _form(s: float, c: float, W: NDArray[np.float64]) -> tuple[float, float, float, float, float]:  # pragma: no cover
+    """q(φ) = q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ on the ring (s, c) = (sin α, cos α):
+    :func:`mbimpact.common.geometry.ring_quadratic_form`, in its arithmetic."""
+    return (0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2], 2 * s * c * W[0, 2], 2 * s * c * W[1, 2],
+            0.5 * s * s * (W[0, 0] - W[1, 1]), s * s * W[0, 1])
+
+
+@njit(cache=True, error_model="numpy")
+def _peaks(form: tuple[float, float, float, float, float], peaked: float, phi_out: NDArray[np.float64],
+           eps_out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
+    """The minima of q on the ring and their widths into ``phi_out``, ``eps_out`` (2,): their number, or
+    0 where :meth:`mbimpact.Cone.graded_rule` has no graded rule (no peak narrower than ``peaked``, or
+    one too narrow to grade). :func:`~mbimpact.quadrature.graded.ring_width_bound` first, then
+    :func:`~mbimpact.quadrature.graded.ring_minima` (Newton on q' = 0 from each grid minimum), as in numpy."""
+    q0, a1, b1, a2, b2 = form
+    # ring_width_bound: on the grid the smallest q is within q''_max h² / 8 of the true minimum
+    curvature = math.hypot(a1, b1) + 4.0 * math.hypot(a2, b2)
+    if not curvature > 0.0:
+        return 0  # q is constant on the ring: no peak
+    low = math.inf
+    for i in range(64):
+        low = min(low, q0 + a1 * _GRID[0, i] + b1 * _GRID[4, i] + a2 * _GRID[2, i] + b2 * _GRID[5, i])
+    low -= curvature * (2 * math.pi / 64) ** 2 / 8
+    if (math.sqrt(2.0 * low / curvature) if low > 0.0 else 0.0) >= peaked:
+        return 0
+    # ring_minima: a trigonometric polynomial of degree 2 has at most two local minima (and so has its
+    # sampling: a grid minimum brackets one, and two grid minima are not adjacent)
+    noise = _NEWTON_ROUNDING * _EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
+    k = 0
+    for i in range(64):
+        q = q0 + a1 * _GRID[0, i] + b1 * _GRID[1, i] + a2 * _GRID[2, i] + b2 * _GRID[3, i]
+        before, after = (i + 63) % 64, (i + 1) % 64
+        if not (q <= q0 + a1 * _GRID[0, before] + b1 * _GRID[1, before] + a2 * _GRID[2, before]
+                + b2 * _GRID[3, before]
+                and q < q0 + a1 * _GRID[0, after] + b1 * _GRID[1, after] + a2 * _GRID[2, after]
+                + b2 * _GRID[3, after]) or k == 2:
+            continue
+        phi = _GRID_ANGLES[i]
+        for _ in range(50):
+            c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+            dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
+            d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+            step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
+            phi -= step
+            if abs(step) <= max(1e-15, noise / d2q if d2q > 0 else 0.0):
+                break
+        c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+        qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
+        d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+        phi_out[k] = phi % (2 * math.pi)
+        eps_out[k] = math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300))
+        k += 1
+    # Cone.graded_rule: a peak narrower than `peaked`, none too narrow to grade
+    narrowest = math.inf
+    for j in range(k):
+        narrowest = min(narrowest, eps_out[j])
+    if k == 0 or not _NARROWEST < narrowest < peaked:
+        return 0
+    return k
+
+
+@njit(_PEAKS, cache=True, error_model="numpy")
+def ring_peaks(alpha: float, W: NDArray[np.float64], peaked: float) -> int:  # pragma: no cover — compiled
+    """How many minima of q = mᵀWm the graded rule of a cone of tilt α is cut at (1 or 2), or 0 where
+    :meth:`mbimpact.Cone.graded_rule` gives none (its kernels have no peak narrower than ``peaked``,
+    or one too narrow to grade).
+
+    Parameters
+    ----------
+    alpha : float
+        Tilt of the cone, 0 < α < π/2.
+    W : ndarray, shape (3, 3)
+        Delassus matrix in the local frame.
+    peaked : float
+        Peak width (radians) below which the rule is graded (:attr:`mbimpact.averaging.Graded.peaked`).
+
+    Returns
+    -------
+    int
+    """
+    phi, eps = np.empty(2), np.empty(2)
+    return _peaks(_form(math.sin(alpha), math.cos(alpha), W), peaked, phi, eps)
+
+
+@njit(cache=True, error_model="numpy")
+def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: NDArray[np.float64], s: float,
+           c: float, W: NDArray[np.float64], U: NDArray[np.float64], floor: float, configuration: bool, e: float,
+           out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
+    """The impulse P = (1+e) N / D of (2.8) by the graded rule with ``m`` nodes a half-piece (columns
+    ``start`` … ``start + m`` of the table) into ``out`` (3,); 0, or the status that declines.
+
+    ``ends`` (4, pieces): every half-piece's graded end a, direction ±1, width ε of its map and
+    T = asinh(ℓ / ε); its nodes are φ = a ± ε sinh t, t = T (x + 1) / 2, with weights
+    ε cosh t (T / 2) w / 2π (:func:`~mbimpact.quadrature.graded.graded_azimuth_rule`'s arithmetic)."""
+    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    d, n0, n1, n2 = 0.0, 0.0, 0.0, 0.0
+    ed, e0, e1, e2 = 0.0, 0.0, 0.0, 0.0  # their compensations
+    for h in range(pieces):
+        g, sign, eps, T = ends[0, h], ends[1, h], ends[2, h], ends[3, h]
+        if not T > 0.0:
+            continue  # a zero-length half-piece (a minimum outside the facing interval): weight 0
+        for i in range(start, start + m):
+            t = T * table[_GL_NODE_PLUS_ONE, i] / 2.0
+            # sinh t and cosh t from one exponential (sinh's cancellation for small t moves φ by ~ ε · ε_map,
+            # far below the rounding of φ itself)
+            x = math.exp(t)
+            y = 1.0 / x
+            phi = g + sign * eps * (0.5 * (x - y))
+            p = eps * (0.5 * (x + y)) * (T / 2.0) * table[_GL_WEIGHT, i] / (2.0 * math.pi)
+            m0, m1 = s * math.cos(phi), s * math.sin(phi)
+            sweep = -(m0 * ux + m1 * uy + c * uz)  # −mᵀu: the facet faces u where it is > 0 (G* of (2.7))
+            if not (sweep > 0.0 and p > 0.0):
+                continue
+            # q = (m W)·m, as the numpy rule forms it
+            w0 = m0 * W[0, 0] + m1 * W[1, 0] + c * W[2, 0]
+            w1 = m0 * W[0, 1] + m1 * W[1, 1] + c * W[2, 1]
+            w2 = m0 * W[0, 2] + m1 * W[1, 2] + c * W[2, 2]
+            q = w0 * m0 + w1 * m1 + w2 * c
+            if not q > floor:
+                return DEGENERATE_FACET  # the numpy rule drops such a facet; this kernel leaves it to it
+            # the weight of (2.7) (−mᵀu, or −mᵀu / √q for the configuration flux), times the Newton
+            # impulse coefficient −mᵀu / q of the facet
+            weight = p * (sweep / math.sqrt(q) if configuration else sweep)
+            wc = weight * (sweep / q)
+            d, ed = compensated_add(d, ed, weight)
+            n0, e0 = compensated_add(n0, e0, wc * m0)
+            n1, e1 = compensated_add(n1, e1, wc * m1)
+            n2, e2 = compensated_add(n2, e2, wc * c)
+    d = d + ed
+    if not d > 0.0:
+        return NOT_FACING
+    out[0] = (1.0 + e) * (n0 + e0) / d
+    out[1] = (1.0 + e) * (n1 + e1) / d
+    out[2] = (1.0 + e) * (n2 + e2) / d
+    return 0
+
+
+@njit(_PASS, cache=True, error_model="numpy")
+def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+                peaked: float, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+                error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """(2.8) for one unit velocity on a cone by the graded rule, refined as the adaptive rule refines it:
+    n, 2n, 4n, … nodes a half-piece until two successive levels agree.
+
+    Parameters
+    ----------
+    alpha : float
+        Tilt of the cone, 0 < α < π/2.
+    W : ndarray, shape (3, 3)
+        Delassus matrix in the local frame.
+    U : ndarray, shape (1, 3)
+        Unit contact velocity u in the local frame, u_n < 0.
+    table : ndarray, shape (2, n (2^levels − 1))
+        The Gauss–Legendre nodes of every level (:func:`rule_table`).
+    levels : int
+        The number of levels, every one ``max_nodes`` allows.
+    peaked : float
+        The peak width below which the rule is graded (:attr:`mbimpact.averaging.Graded.peaked`).
+    configuration : bool
+        The facet weight of (2.7): ``"configuration"`` (w = −mᵀu / √(mᵀWm)) if True, else
+        ``"physical"`` (w = −mᵀu).
+    e : float
+        Facet restitution.
+    rtol : float
+        Two levels agree when their relative difference is within this, or within the rounding
+        floor 100 ε √K of a K-facet sum (K = (2k + 2) · nodes: the graded rule's facet count, k
+        the minima of q).
+    degenerate : float
+        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
+    P : ndarray, shape (1, 3)
+        Output: the last level's impulse P = (1+e) N / D, N = ∫ w (−mᵀu / mᵀWm) m and D = ∫ w over
+        the facing set, w the flux weight of (2.7).
+    error : ndarray, shape (1,)
+        Output: the error estimate |W (P_m − P_{m/2})| / |W P_m|.
+
+    Returns
+    -------
+    status : int
+        :data:`SETTLED` (``P`` and ``error`` are written); :data:`NOT_PEAKED` where
+        :meth:`mbimpact.Cone.graded_rule` gives no graded rule; :data:`STALLED` or :data:`CAPPED`
+        where the adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified
+        by an ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET` (a node on a
+        facet the mechanism cannot push), :data:`NOT_FACING` (no weight).
+    nodes : int
+        The node count a piece of the last level computed.
+    """
+    s, c = math.sin(alpha), math.cos(alpha)
+    phi_star, eps_star = np.empty(2), np.empty(2)
+    k = _peaks(_form(s, c, W), peaked, phi_star, eps_star)
+    if k == 0:
+        return NOT_PEAKED, 0
+    # the facing interval [lo, hi] (facing_half_width): the whole ring from ψ, or the arc ψ + π ± h
+    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    ut, un = math.hypot(ux, uy), abs(uz)
+    psi = math.atan2(uy, ux)
+    half = math.pi if s * ut <= c * un else math.pi - math.acos(min(1.0, max(-1.0, c * un / (s * ut))))
+    centre = psi if half == math.pi else psi + math.pi
+    lo, hi = centre - half, centre + half
+    # cut at the minima inside it (unwrapped); those outside make zero-length pieces at hi
+    breaks = np.empty(k + 2)
+    breaks[0], breaks[k + 1] = lo, hi
+    for j in range(k):
+        inside = (phi_star[j] - lo) % (2 * math.pi) + lo
+        breaks[j + 1] = inside if inside < hi else hi
+    if k == 2 and breaks[2] < breaks[1]:
+        breaks[1], breaks[2] = breaks[2], breaks[1]
+    # every piece halved; each half graded towards its end a: φ = a ± ε sinh t, ε the distance from a to
+    # the nearest peak's complex singularity φ_j ± iε_j, t ∈ [0, T], T = asinh(ℓ / ε)
+    pieces = 2 * k + 2
+    ends = np.empty((4, pieces))
+    for i in range(k + 1):
+        a, b = breaks[i], breaks[i + 1]
+        mid = 0.5 * (a + b)
+        ends[0, i], ends[1, i], ends[3, i] = a, 1.0, mid - a
+        ends[0, k + 1 + i], ends[1, k + 1 + i], ends[3, k + 1 + i] = b, -1.0, b - mid
+    for h in range(pieces):
+        eps = math.inf
+        for j in range(k):
+            dist = abs((ends[0, h] - phi_star[j] + math.pi) % (2 * math.pi) - math.pi)
+            eps = min(eps, math.sqrt(eps_star[j] ** 2 + dist**2))
+        eps = max(eps, 1e-300)
+        ends[2, h], ends[3, h] = eps, math.asinh(ends[3, h] / eps)
+    trace = W[0, 0] + W[1, 1] + W[2, 2]
+    floor = degenerate * trace
+    n = table.shape[1] // ((1 << levels) - 1)
+    coarse, fine = np.empty(3), np.empty(3)
+    status = _level(0, n, table, pieces, ends, s, c, W, U, floor, configuration, e, coarse)
+    if status:
+        return status, n
+    previous, start, m = math.inf, n, n
+    for _ in range(1, levels):
+        m *= 2
+        status = _level(start, m, table, pieces, ends, s, c, W, U, floor, configuration, e, fine)
+        if status:
+            return status, m
+        start += m
+        # relative_change: the difference of the levels by the velocity change W P it makes (defined even
+        # when J is rank-deficient, where P is not), settled within rtol or the rounding floor 100 ε √K
+        diff, ref, norm = 0.0, 0.0, 0.0
+        for i in range(3):
+            dw = (fine[0] - coarse[0]) * W[0, i] + (fine[1] - coarse[1]) * W[1, i] + (fine[2] - coarse[2]) * W[2, i]
+            fw = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
+            diff += dw * dw
+            ref += fw * fw
+            norm += fine[i] * fine[i]
+        err = math.sqrt(diff / ref)
+        rounding = 100 * _EPS * math.sqrt(pieces * m)
+        if err <= max(rtol, rounding):
+            P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
+            error[0] = err
+            return SETTLED, m
+        if err <= rounding * (trace * math.sqrt(norm / ref)) and err > 0.1 * previous:
+            return STALLED, m  # rounding amplified by |W| |P| / |W P|: an ill-conditioned contact
+        previous = err
+        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
+    return CAPPED, m
+
+
+def jit_seconds() -> float:
+    """Wall time to make :func:`ring_peaks` and :func:`graded_pass` callable in this process (numba's
+    import excluded: importing this module does it): their machine code loaded from numba's on-disk
+    cache (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The
+    first call pays it; later calls return near 0."""
+    start = time.perf_counter()
+    W = np.diag([1e-6, 1.0, 1.0])  # q has two sharp minima on a tilted ring
+    ring_peaks(0.4, W, 0.15)
+    graded_pass(0.4, W, np.array([[0.6, 0.0, -0.8]]), rule_table(4, 3), 3, 0.15, True, 0.5, 1e-12, 1e-14,
+                np.empty((1, 3)), np.empty(1))
+    return time.perf_counter() - start

@@ -1,0 +1,123 @@
+"""One velocity on a Cone with a nearly singular W: the compiled graded rule against the graded rule in numpy."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+from mbimpact.averaging import AUTO_ORDER, Graded, GradedPass
+from mbimpact.averaging.refinement import peaked_rule
+
+from tests.helpers import UPRIGHT_UR5, mechanism, relative_du, seeds, spd, unit_velocities, upright_ur5_delassus
+
+EPS = np.finfo(float).eps
+
+
+def facets(spec, W, u, nodes):
+    """The facet count of the graded rule at ``nodes`` a piece, as the numpy rule counts it (its
+    rounding floor is 100 ε √facets)."""
+    return peaked_rule(spec, W, Graded.peaked, screen=False)(u[None], nodes)[1].shape[-1]
+
+
+def at_rounding(out, spec, W, u):
+    """Whether a result's last difference of levels is within the rounding that the stall test of the
+    adaptive rule allows: 100 ε √K amplified by tr(W) |P| / |W P|. There the decision to stop is rounding's."""
+    P = out.P[0]
+    amplification = np.trace(W) * np.linalg.norm(P) / np.linalg.norm(P @ W)
+    return out.error[0] <= 100 * EPS * math.sqrt(facets(spec, W, u, out.nodes)) * amplification
+
+
+@given(seeds, st.floats(0.05, 1.5), st.sampled_from(["configuration", "physical"]), st.floats(3.0, 7.0),
+       st.booleans())
+def test_every_level_equals_the_graded_rule(seed, alpha, flux, log_cond, ur5):
+    """The same minima, pieces, levels (n, 2n, … nodes a piece) and stopping rule: the same result to rounding
+    at the same node count, on W with cond 1e3 … 1e7 (random, or the UR5's near-singular posture turned
+    about the normal), across both regimes of incidence. It is worthwhile exactly where Graded is, declines
+    exactly where Graded declines, and otherwise only where Graded warns or rounding decides: on such W the
+    difference of two levels is itself rounding amplified by |W| |P| / |W P| (up to ~1e-8 for the UR5), so
+    whether it falls below rtol = 1e-12 at this level or the next is rounding's decision, numpy's or the kernel's."""
+    rng = np.random.default_rng(seed)
+    if ur5:
+        turn = rng.uniform(0.0, 2 * math.pi)
+        R = np.array([[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+        W = R @ upright_ur5_delassus() @ R.T
+    else:
+        W = spd(rng, 3, 10**log_cond)
+    cond = np.linalg.cond(W)
+    law = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux)
+    for u in unit_velocities(rng, 7):
+        assert GradedPass().worthwhile(law.spec, W, u[None]) == Graded().worthwhile(law.spec, W, u[None])
+        fast = GradedPass().average(law.spec, W, u[None])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            slow = Graded().average(law.spec, W, u[None])
+        if slow is None:  # no graded rule for this W: no narrow peak of the kernels on this ring
+            assert fast is None
+            continue
+        warned = any(issubclass(w.category, mbi.AccuracyWarning) for w in caught)
+        stop = max(law.rtol, 100 * EPS * math.sqrt(facets(law.spec, W, u, slow.nodes)))  # the stopping bound
+        if fast is None:  # numpy warned, or its last difference was at the bound or rounding itself
+            assert warned or slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
+            continue
+        assert fast.method == "graded-pass"
+        assert fast.error[0] <= max(law.rtol, 100 * EPS * math.sqrt(facets(law.spec, W, u, fast.nodes)))
+        if warned:  # numpy stopped at rounding where the kernel's rounding fell below rtol
+            assert at_rounding(slow, law.spec, W, u)
+        if fast.nodes == slow.nodes:  # the same sums in another order
+            assert relative_du(fast.P, slow.P, W)[0] < 1e-14 * cond
+            assert abs(fast.error[0] - slow.error[0]) < 1e-13 * cond
+        else:  # a difference at the bound, decided otherwise by rounding: one level apart, both converged
+            assert fast.nodes in (2 * slow.nodes, slow.nodes // 2)
+            assert slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
+            assert relative_du(fast.P, slow.P, W)[0] < 10 * max(stop, fast.error[0], slow.error[0]) + 1e-14 * cond
+
+
+def test_a_near_singular_arm_takes_the_compiled_graded_rule():
+    """The UR5 upright with the elbow straight (W's eigenvalues 1e7 apart): "auto" grades the rule, in one
+    compiled call, at the numpy graded rule's node count and impulse."""
+    mech = mechanism("ur5")
+    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    contact = mbi.PointContact("tool0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)  # further micro-impacts follow: not the point here
+        res = mbi.impact(mech, UPRIGHT_UR5, v, contact, law)
+        ref = mbi.impact(mech, UPRIGHT_UR5, v, contact, law.replace(method="graded"))
+    assert res.method == "graded-pass" and ref.method == "graded" and res.nodes == ref.nodes
+    np.testing.assert_allclose(res.P, ref.P, rtol=1e-12)
+    assert AUTO_ORDER.index("graded-pass") + 1 == AUTO_ORDER.index("graded")
+    # several velocities or a fixed node count: the numpy rule's (worthwhile says so, and it declines)
+    W, u = upright_ur5_delassus(), np.array([[0.3, 0.1, -1.0]]) / math.sqrt(1.1)
+    assert GradedPass().worthwhile(law.spec, W, u)
+    for spec, U in ((law.spec, np.vstack([u, u])), (law.replace(nodes=32).spec, u)):
+        assert not GradedPass().worthwhile(spec, W, U) and GradedPass().average(spec, W, U) is None
+    assert law.contact_impulses(W, np.vstack([u, u])).method == "graded"
+
+
+def test_it_declines_where_the_graded_rule_would_warn_and_naming_it_then_fails():
+    """max_nodes below what the case needs (128 nodes a piece): the compiled rule declines (CAPPED), "auto"
+    runs the numpy graded rule, which reports the error reached; naming "graded-pass" is a ParameterError
+    with the reason. On a W without a narrow peak it declines too."""
+    W = upright_ur5_delassus()
+    u = np.array([[math.sin(0.5), 0.0, -math.cos(0.5)]])
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux="configuration")
+    settled = GradedPass().average(law.spec, W, u)
+    assert settled is not None and settled.nodes == 128
+    capped = law.replace(max_nodes=64)
+    assert GradedPass().average(capped.spec, W, u) is None
+    with pytest.warns(mbi.AccuracyWarning, match="64 nodes"):
+        assert capped.contact_impulses(W, u).method == "graded"
+    with pytest.raises(mbi.ParameterError, match="stops short of rtol"):
+        capped.replace(method="graded-pass").contact_impulses(W, u)
+    with pytest.raises(mbi.ParameterError, match="no narrow peak"):
+        law.replace(method="graded-pass").contact_impulses(np.eye(3), u)
+
+
+def test_compile_kernels_covers_the_graded_kernels():
+    out = mbi.compile_kernels()
+    assert "mbimpact.averaging.graded_kernels" in out
+    assert all(t >= 0.0 for t in out["mbimpact.averaging.graded_kernels"])
