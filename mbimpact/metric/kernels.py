@@ -28,12 +28,13 @@ from numba import njit, types
 from numpy.typing import NDArray
 
 __all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
-           "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF"]
+           "world_delassus", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF", "NEAR_SINGULAR"]
 
 #: Status codes of :func:`prepare_factor` and :func:`prepare_metric`: the law may run; the general
-#: route treats or names the case (no approach, n⁰ out of reach, a rank-deficient or overflowing W, a
-#: singular A); J v is not finite; |u| overflows.
-READY, DECLINED, U_NOT_FINITE, SPEED_INF = 0, 1, 2, 3
+#: route treats or names the case (no approach, n⁰ out of reach, an overflowing W, a singular A); J v
+#: is not finite; |u| overflows; W may be rank-deficient (det W / (tr W)³ ≤ rank_floor: the caller
+#: decides, from W's eigenvalues, whether to go on with ``rank_floor = -inf``).
+READY, DECLINED, U_NOT_FINITE, SPEED_INF, NEAR_SINGULAR = 0, 1, 2, 3, 4
 
 # Explicit signatures, compiled (or loaded from the cache) on import: read-only arrays of any layout, so
 # that one machine code serves every caller (a frozen metric's J, Pinocchio's column-major U, a user's
@@ -59,6 +60,12 @@ _HALF_MAX = 0.5 * 1.7976931348623157e308
 def single_size(n: int) -> int:
     """Length of the buffer of one spatial impact of a mechanism with ``n`` velocities: 6n + 33."""
     return 6 * n + 33
+
+
+def world_delassus(buffer: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """W (3, 3), world-aligned, as :func:`prepare_factor` and :func:`prepare_metric` leave it in ``buffer``."""
+    w = 3 * n + 12
+    return buffer[w:w + 9].reshape(3, 3)
 
 
 def local_views(buffer: NDArray[np.float64], n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -181,7 +188,7 @@ def _state(J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64
     a, b, c, d, e, f, g, h, k = (W[0] / tr, W[1] / tr, W[2] / tr, W[3] / tr, W[4] / tr, W[5] / tr,
                                  W[6] / tr, W[7] / tr, W[8] / tr)
     if not a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) > rank_floor:
-        return DECLINED, 0.0, 0.0
+        return NEAR_SINGULAR, 0.0, 0.0
     big = max(abs(u0), abs(u1), abs(u2))
     t0, t1, t2 = u0 / big, u1 / big, u2 / big
     speed = big * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
@@ -232,8 +239,9 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     -------
     status : int
         :data:`READY`; :data:`DECLINED` for what the general route treats or names (A(q) not
-        positive definite, W overflowing, no approach, n⁰ out of reach, a rank-deficient W);
-        :data:`U_NOT_FINITE`; :data:`SPEED_INF` (|u| overflows).
+        positive definite, W overflowing, no approach, n⁰ out of reach); :data:`U_NOT_FINITE`;
+        :data:`SPEED_INF` (|u| overflows); :data:`NEAR_SINGULAR` (W may be rank-deficient: W, at its
+        place in ``buf``, is filled, the rest of the state is not).
     speed, w_scale : float
         |u| and tr(Rᵀ W R).
     """

@@ -271,3 +271,41 @@ def test_a_contact_returning_wrong_shapes_is_named(law_name, bad):
         mbi.impact(mech, q, v, broken, LAWS[law_name])
     with pytest.raises(mbi.ShapeError, match="Broken.jacobian"):
         mbi.impact_batch(mech, np.stack([q, q]), np.stack([v, v]), broken, LAWS[law_name])
+
+
+def test_a_nearly_singular_but_full_rank_delassus_matrix_stays_on_the_compiled_route(monkeypatch):
+    """The UR5 upright (W's eigenvalues 1e7 apart): det W / (tr W)³ is below the rank screen, but every
+    eigenvalue is kept by the range projector, which is then the identity: the compiled route goes on
+    (no ContactMetric is built) and equals the batch pipeline, projector included. A truly planar
+    mechanism (rank 2) still takes the general route."""
+    mech = mechanism("ur5")
+    q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    J = mech.point_jacobian(q, "tool0")
+    v = np.linalg.lstsq(J, [0.3, 0.1, -1.0], rcond=None)[0]
+    metric = ContactMetric.from_mechanism(mech, q, J.copy())
+    assert metric.range_projector is not None  # the screen fires: the general route would project
+    calls = []
+    real = ContactMetric.from_mechanism.__func__
+
+    def counted(cls, *args):
+        calls.append(1)
+        return real(cls, *args)
+
+    monkeypatch.setattr(ContactMetric, "from_mechanism", classmethod(counted))
+    for law in (LAWS["cone"], LAWS["coulomb sliding"]):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+            res = mbi.impact(mech, q, v, mbi.PointContact("tool0"), law)
+            ref = law.impulses(metric, res.u_minus[None], np.eye(3))
+        W = metric.W
+        tol = 1e-12 if isinstance(law, mbi.RoughLaw) else 10 * law.rtol
+        assert np.linalg.norm(W @ (res.P - ref.P[0])) <= tol * np.linalg.norm(W @ ref.P[0])
+    assert not calls
+    pend = mechanism("double_pendulum")
+    tip = mbi.PointContact(last_frame(pend), normal=[0.0, 0.3, -1.0])
+    Jp, Rp = tip.jacobian(pend, np.array([0.4, 0.9]), 3)
+    vp = np.linalg.lstsq(Jp, Rp @ [0.2, 0.1, -1.0], rcond=None)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        mbi.impact(pend, np.array([0.4, 0.9]), vp if (Jp @ vp) @ Rp[:, -1] < 0 else -vp, tip, LAWS["cone"])
+    assert calls  # rank 2: the general route, which projects
