@@ -132,6 +132,11 @@ def overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> li
         if J[2] @ v >= 0:
             v = -J[2]
         rows += _overhead_case(mech, name, q, frame, v, min_time, floors=True)
+        if name == "ur5":  # the elbow straight: W's eigenvalues 1e7 apart (a near-singular arm)
+            q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+            v = np.linalg.lstsq(mech.point_jacobian(q, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+            rows += _overhead_case(mech, "ur5, elbow straight (anisotropic W)", q, "tool0", v, min_time,
+                                   floors=False)
         if name == "solo12":  # a foot on the ground: W's eigenvalues 30× apart, the cone's kernels peak
             q = mech.neutral()
             q[2] = 0.336
