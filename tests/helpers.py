@@ -131,3 +131,69 @@ def energy_bound(result: mbi.ImpactResult | mbi.BatchResult, W_cond: float) -> n
     err = np.atleast_1d(result.error_estimate)
     delta = err + 100 * np.finfo(float).eps * max(W_cond, 1.0)
     return delta * np.linalg.norm(P, axis=1) * (np.linalg.norm(um, axis=1) + np.linalg.norm(up, axis=1)) / 2
+
+
+def graded_facets(spec, W: np.ndarray, u: np.ndarray, nodes: int) -> int:
+    """The facet count of the numpy graded rule (mbimpact.averaging.Graded) at ``nodes`` a piece for one
+    velocity ``u`` (3,): the K of its rounding floor 100 ε √K."""
+    from mbimpact.averaging import Graded
+    from mbimpact.averaging.refinement import peaked_rule
+
+    return int(peaked_rule(spec, W, Graded.peaked, screen=False)(u[None], nodes)[1].shape[-1])
+
+
+def at_rounding(out, spec, W: np.ndarray, u: np.ndarray) -> bool:
+    """Whether a graded result's last difference of levels is within the rounding that the stall test of
+    the adaptive rule allows, 100 ε √K amplified by tr(W) |P| / |W P|: there, whether to stop is rounding's
+    decision."""
+    P = out.P[0]
+    amplification = np.trace(W) * np.linalg.norm(P) / np.linalg.norm(P @ W)
+    return bool(out.error[0] <= 100 * np.finfo(float).eps * math.sqrt(graded_facets(spec, W, u, out.nodes))
+                * amplification)
+
+
+def check_against_graded(method, law, W: np.ndarray, u: np.ndarray, cond: float, same_error: bool = True) -> None:
+    """A compiled graded rule (``method``, an Averaging instance) against the numpy graded rule for one
+    velocity ``u`` (3,): worthwhile exactly where it is, None where it declines, and otherwise the same
+    result to rounding at the same node count; a different decision (declining, or one level apart) only
+    where the numpy rule warned or its last difference sat at the stopping bound or at rounding."""
+    import warnings
+
+    from mbimpact.averaging import Graded
+
+    eps = np.finfo(float).eps
+    assert method.worthwhile(law.spec, W, u[None]) == Graded().worthwhile(law.spec, W, u[None])
+    fast = method.average(law.spec, W, u[None])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        slow = Graded().average(law.spec, W, u[None])
+    if slow is None:  # no graded rule for this W: no narrow peak of the kernels
+        assert fast is None
+        return
+    warned = any(issubclass(w.category, mbi.AccuracyWarning) for w in caught)
+    stop = max(law.rtol, 100 * eps * math.sqrt(graded_facets(law.spec, W, u, slow.nodes)))  # the stopping bound
+    if fast is None:  # numpy warned, or its last difference was at the bound or rounding itself
+        assert warned or slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
+        return
+    assert fast.method == method.name
+    assert fast.error[0] <= max(law.rtol, 100 * eps * math.sqrt(graded_facets(law.spec, W, u, fast.nodes)))
+    if warned:  # numpy stopped at rounding where the compensated sums fell below rtol
+        assert at_rounding(slow, law.spec, W, u)
+    if fast.nodes == slow.nodes:  # the same sums in another order
+        assert relative_du(fast.P, slow.P, W)[0] < 1e-14 * cond
+        if same_error:
+            assert abs(fast.error[0] - slow.error[0]) < 1e-13 * cond
+    else:  # a difference at the bound, decided otherwise by rounding: one level apart, both converged
+        assert fast.nodes in (2 * slow.nodes, slow.nodes // 2)
+        assert slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
+        assert relative_du(fast.P, slow.P, W)[0] < 10 * max(stop, fast.error[0], slow.error[0]) + 1e-14 * cond
+
+
+def anisotropic_delassus(rng: np.random.Generator, log_cond: float, ur5: bool) -> np.ndarray:
+    """A strongly anisotropic local-frame W (3, 3): the UR5's at its near-singular posture turned by a
+    random angle about the normal, or a random one with condition number 10**log_cond."""
+    if not ur5:
+        return spd(rng, 3, 10**log_cond)
+    turn = rng.uniform(0.0, 2 * math.pi)
+    R = np.array([[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+    return R @ upright_ur5_delassus() @ R.T

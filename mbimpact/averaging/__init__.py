@@ -1,24 +1,25 @@
 """Stage 4 of the pipeline: averaging methods, the rules that turn a roughness measure, the
 Delassus matrix W and the contact velocities into the two integrals of (2.8).
 
-=============== ============================================================== ===================
-name            what it does                                                   ``"auto"`` uses it
-=============== ============================================================== ===================
-``exact``       finite sum over a finite facet set                             finite measures
-``ring``        Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
-``tilt-table``  Chebyshev tables of a tilt density in the incidence (exact)     tilt densities, ≥ 1024 rows
-``graded-pass`` ``graded`` for one velocity on a cone, in one compiled call    one velocity on a cone, a peak < 0.15
-``graded``      quadrature graded towards the peaks of a nearly singular W      a peak narrower than 0.15
-``cone-pair``   a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
-``cone-pass``   a cone's whole adaptive rule in one compiled call               one velocity on a cone
-``slope-pass``  a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
-``fixed``       the measure's rule with ``nodes`` nodes                        ``nodes`` given
-``adaptive``    the measure's rule doubled until ``rtol``                      otherwise
-``monte-carlo`` ``samples`` facets drawn from P, with a standard error          never (a baseline)
-=============== ============================================================== ===================
+====================== ============================================================== ===================
+name                   what it does                                                   ``"auto"`` uses it
+====================== ============================================================== ===================
+``exact``              finite sum over a finite facet set                             finite measures
+``ring``               Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
+``tilt-table``         Chebyshev tables of a tilt density in the incidence (exact)    tilt densities, ≥ 1024 rows
+``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity on a spatial tilt density, a peak < 0.15
+``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity on a cone, a peak < 0.15
+``graded``             quadrature graded towards the peaks of a nearly singular W     a peak narrower than 0.15
+``cone-pair``          a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
+``cone-pass``          a cone's whole adaptive rule in one compiled call              one velocity on a cone
+``slope-pass``         a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
+``fixed``              the measure's rule with ``nodes`` nodes                        ``nodes`` given
+``adaptive``           the measure's rule doubled until ``rtol``                      otherwise
+``monte-carlo``        ``samples`` facets drawn from P, with a standard error         never (a baseline)
+====================== ============================================================== ===================
 
 ``RoughLaw(..., method="auto" | name | Averaging subclass or instance)``. With
-``"auto"`` the methods are tried in :data:`AUTO_ORDER`; the first that supports the
+``"auto"`` the m       ethods are tried in :data:`AUTO_ORDER`; the first that supports the
 measure, finds the case worthwhile and does not decline it at run time is used. The
 result records which method ran (``result.method``) and with how many nodes.
 """
@@ -30,6 +31,7 @@ from .cone_pair import ConePair
 from .cone_pass import ConePass
 from .exact import Exact, MonteCarlo
 from .graded_pass import GradedPass
+from .graded_slope_pass import GradedSlopePass
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
 from .ring import Ring
@@ -48,6 +50,7 @@ __all__ = [
     "TiltTableMethod",
     "Graded",
     "GradedPass",
+    "GradedSlopePass",
     "ConePair",
     "ConePass",
     "SlopePass",
@@ -59,10 +62,10 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, GradedPass, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive,
+    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, GradedPass, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive,
                 MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-pass", "graded", "cone-pair", "cone-pass",
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "graded-pass", "graded", "cone-pair", "cone-pass",
                                "slope-pass", "fixed", "adaptive")

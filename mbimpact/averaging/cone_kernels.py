@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
+__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "level_decision", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
            "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
 
 # status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
@@ -102,6 +102,41 @@ def compensated_add(total: float, compensation: float, x: float) -> tuple[float,
     else:
         compensation += (x - t) + total
     return t, compensation
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def level_decision(coarse: NDArray[np.float64], fine: NDArray[np.float64], W: NDArray[np.float64], rtol: float,
+                   facets: float, stall_checks: bool, previous: float, P: NDArray[np.float64],
+                   error: NDArray[np.float64]) -> tuple[int, float]:  # pragma: no cover — compiled
+    """:func:`mbimpact.averaging.refinement.refine`'s test on two successive levels of one velocity:
+    their relative difference by the velocity change W P they make (defined even where J is
+    rank-deficient, where P is not), settled within rtol or the rounding floor 100 ε √K of a K-facet
+    sum; with ``stall_checks``, stalled where it is rounding amplified by |W| |P| / |W P| and did not
+    shrink tenfold since the ``previous`` level (an ill-conditioned contact). Once settled, the fine
+    level's impulse and the difference are written to ``P`` (1, 3) and ``error`` (1,).
+
+    Returns
+    -------
+    (status, error) : (int, float)
+        :data:`SETTLED`, :data:`STALLED` or :data:`NOT_SETTLED` (refine on), and the difference.
+    """
+    diff, ref, norm = 0.0, 0.0, 0.0
+    for i in range(3):
+        dw = (fine[0] - coarse[0]) * W[0, i] + (fine[1] - coarse[1]) * W[1, i] + (fine[2] - coarse[2]) * W[2, i]
+        fw = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
+        diff += dw * dw
+        ref += fw * fw
+        norm += fine[i] * fine[i]
+    err = math.sqrt(diff / ref)
+    rounding = 100 * _EPS * math.sqrt(facets)
+    if err <= max(rtol, rounding):
+        P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
+        error[0] = err
+        return SETTLED, err
+    trace = W[0, 0] + W[1, 1] + W[2, 2]
+    if stall_checks and err <= rounding * (trace * math.sqrt(norm / ref)) and err > 0.1 * previous:
+        return STALLED, err
+    return NOT_SETTLED, err
 
 
 @njit(cache=True, error_model="numpy")
@@ -190,24 +225,9 @@ def _levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table:
         if status:
             return status, m
         start += m
-        # the relative difference of the two levels by the velocity change W P they produce (defined
-        # even when J is rank-deficient, where P is not); settled within rtol or the rounding floor
-        # 100 ε √m of the adaptive rule
-        diff, ref, norm = 0.0, 0.0, 0.0
-        for i in range(3):
-            wc = coarse[0] * W[0, i] + coarse[1] * W[1, i] + coarse[2] * W[2, i]
-            wf = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
-            diff += (wf - wc) ** 2
-            ref += wf * wf
-            norm += fine[i] * fine[i]
-        err = math.sqrt(diff / ref)
-        rounding = 100 * _EPS * math.sqrt(m)
-        if err <= max(rtol, rounding):
-            P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
-            error[0] = err
-            return SETTLED, m
-        if stall_checks and err <= rounding * (w00 + w11 + w22) * math.sqrt(norm / ref) and err > 0.1 * previous:
-            return STALLED, m  # rounding amplified by |W| |P| / |W P|: an ill-conditioned contact
+        decision, err = level_decision(coarse, fine, W, rtol, m, stall_checks, previous, P, error)
+        if decision != NOT_SETTLED:
+            return decision, m
         previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
     return (CAPPED if stall_checks else NOT_SETTLED), m

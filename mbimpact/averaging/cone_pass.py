@@ -25,6 +25,7 @@ from ..results.impact import ContactImpulses
 from .base import Averaging
 from .cone_pair import KERNELS
 from .kernels import AveragingSpec
+from .refinement import level_plan
 
 __all__ = ["ConePass"]
 
@@ -45,12 +46,9 @@ class ConePass(Averaging):
         return spec.nodes is None and len(U) == 1
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
-        n = spec.roughness.initial_nodes
-        if 2 * n > spec.max_nodes or len(U) != 1:
+        n, levels = level_plan(spec)  # the levels refine() may reach: n, 2n, … ≤ max_nodes
+        if levels < 2 or len(U) != 1:
             return None
-        levels = 1
-        while n << levels <= spec.max_nodes:  # the levels refine() may reach: n, 2n, … ≤ max_nodes
-            levels += 1
         kernels = KERNELS.get()
         P, err = np.empty((1, 3)), np.empty(1)  # written by the kernel (cheaper than arrays it returns)
         status, nodes = kernels.cone_pass(spec.roughness.alpha, W, U,  # type: ignore[attr-defined]

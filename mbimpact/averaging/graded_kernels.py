@@ -28,7 +28,7 @@ from numba import njit, types
 from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
-from .cone_kernels import compensated_add
+from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
 
 __all__ = ["rule_table", "ring_peaks", "graded_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
            "NOT_PEAKED", "STALLED", "CAPPED"]
@@ -336,23 +336,9 @@ def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
         if status:
             return status, m
         start += m
-        # relative_change: the difference of the levels by the velocity change W P it makes (defined even
-        # when J is rank-deficient, where P is not), settled within rtol or the rounding floor 100 ε √K
-        diff, ref, norm = 0.0, 0.0, 0.0
-        for i in range(3):
-            dw = (fine[0] - coarse[0]) * W[0, i] + (fine[1] - coarse[1]) * W[1, i] + (fine[2] - coarse[2]) * W[2, i]
-            fw = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
-            diff += dw * dw
-            ref += fw * fw
-            norm += fine[i] * fine[i]
-        err = math.sqrt(diff / ref)
-        rounding = 100 * _EPS * math.sqrt(pieces * m)
-        if err <= max(rtol, rounding):
-            P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
-            error[0] = err
-            return SETTLED, m
-        if err <= rounding * (trace * math.sqrt(norm / ref)) and err > 0.1 * previous:
-            return STALLED, m  # rounding amplified by |W| |P| / |W P|: an ill-conditioned contact
+        decision, err = level_decision(coarse, fine, W, rtol, pieces * m, True, previous, P, error)
+        if decision != NOT_SETTLED:  # settled (P and error written), or stalled at rounding
+            return decision, m
         previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
     return CAPPED, m

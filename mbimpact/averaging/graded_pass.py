@@ -28,7 +28,7 @@ from ..metric.delassus import eigen_ratio, spread_bound
 from ..results.impact import ContactImpulses
 from .base import Averaging
 from .kernels import AveragingSpec
-from .refinement import Graded
+from .refinement import Graded, level_plan
 
 __all__ = ["GradedPass", "KERNELS"]
 
@@ -64,12 +64,7 @@ class GradedPass(Averaging):
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
         if spec.nodes is not None or len(U) != 1 or W.shape != (3, 3):
             return None
-        n = spec.roughness.initial_nodes
-        if 2 * n > spec.max_nodes:  # refine()'s first pair must stay within max_nodes
-            n = max(1, spec.max_nodes // 2)
-        levels = 1
-        while n << levels <= spec.max_nodes:  # the levels refine() may reach: n, 2n, … ≤ max_nodes
-            levels += 1
+        n, levels = level_plan(spec)  # the levels refine() may reach: n, 2n, … ≤ max_nodes
         if levels < 2:  # max_nodes = 1: refine() computes the pair (1, 2) anyway, and warns
             return None
         kernels = KERNELS.get()

@@ -126,13 +126,30 @@ def refine(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], 
     return ContactImpulses(P, err, nodes, method)
 
 
+def level_plan(spec: AveragingSpec) -> tuple[int, int]:
+    """The levels :func:`refine` may run for ``spec``: n, 2n, …, 2^(L−1) n nodes a piece, every one
+    within ``max_nodes`` (n is halved when the first pair would pass it). The compiled single-velocity
+    rules build their node tables from it.
+
+    Returns
+    -------
+    (n, L) : (int, int)
+        The first level's node count and the number of levels (≥ 2 unless max_nodes = 1).
+    """
+    nodes = spec.roughness.initial_nodes
+    if 2 * nodes > spec.max_nodes:  # the first pair must stay within max_nodes
+        nodes = max(1, spec.max_nodes // 2)
+    levels = 1
+    while nodes << levels <= spec.max_nodes:
+        levels += 1
+    return nodes, levels
+
+
 def _refine_block(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, bool]:
     """:func:`refine` on one block of rows: impulses, error estimates, final node count, and
     whether rounding (``limited``) or ``max_nodes`` (``capped``) ended the refinement."""
-    nodes = spec.roughness.initial_nodes
-    if 2 * nodes > spec.max_nodes:  # the first pair must stay within max_nodes
-        nodes = max(1, spec.max_nodes // 2)
+    nodes = level_plan(spec)[0]
     (P, fine), (_, facets) = rule_average(spec, W, U, (nodes, 2 * nodes), rule)
     err = np.full(len(U), np.inf)
     todo = np.arange(len(U))

@@ -30,7 +30,7 @@ mᵀWm ≤ DEGENERATE tr W left out, and P = (1+e) Σ w c m / Σ w at each level
 
 Where the time goes, and what is done about it (~10⁴ facets, ~25 µs for a typical impact): the
 rings' sin α, cos α, density and facing half-width are computed for all rings of a level first,
-in loops without calls (polynomials in place of libm: :func:`_sin_cos_tilt`, :func:`_exp_neg`,
+in loops without calls (polynomials in place of libm: :func:`_sin_cos_tilt`, :func:`exp_neg`,
 :func:`_acos`), so that they run in SIMD lanes; so do the azimuth sums of a ring (their sums
 reassociated: ``fastmath`` flags ``reassoc`` and ``contract``), in pairs of nodes that share most
 of their arithmetic and one division. No array is passed to a compiled function per ring (each
@@ -49,8 +49,8 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["slope_pass", "tilt_nodes", "level_table", "level_count", "jit_seconds", "DONE", "STALLED", "CAPPED",
-           "EMPTY", "NEED_TABLE", "TABULATED", "GAUSSIAN"]
+__all__ = ["slope_pass", "tilt_nodes", "level_table", "level_count", "cos_sin", "exp_neg", "jit_seconds", "DONE",
+           "STALLED", "CAPPED", "EMPTY", "NEED_TABLE", "TABULATED", "GAUSSIAN"]
 
 #: Status codes of :func:`slope_pass`: converged to ``rtol`` (or to the rounding floor); stopped
 #: above ``rtol`` by rounding amplified by |W| |P| / |W P|; stopped by ``max_nodes``; a level
@@ -67,7 +67,7 @@ _EPS = float(np.finfo(float).eps)
 # fast-math flags of the functions that sum over nodes: their sums may be reassociated (run in
 # SIMD lanes) and their products fused; NaN, infinities and signed zeros keep their IEEE meaning.
 # The elementary functions below must not get them (their Cody–Waite splittings would be folded
-# away): numba inlines them ("always") into _prepare, compiled without, and _cos_sin, a function
+# away): numba inlines them ("always") into _prepare, compiled without, and cos_sin, a function
 # of its own, keeps its exact instructions where the compiler inlines it into the ring sums.
 _FAST = {"reassoc", "contract"}
 
@@ -87,7 +87,7 @@ _PIO2_LO = 6.123233995736766e-17
 _LN2_HI = 6.93147180369123816490e-01
 _LN2_LO = 1.90821492927058770002e-10
 _INV_LN2 = 1.4426950408889634
-# 2^(−2ᵇ), b = 0 … 9, whose products make any 2⁻ᵐ, m < 1024 (:func:`_exp_neg`)
+# 2^(−2ᵇ), b = 0 … 9, whose products make any 2⁻ᵐ, m < 1024 (:func:`exp_neg`)
 (_B0, _B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9) = (2.0 ** -(1 << b) for b in range(10))
 _PI_HI, _PI_LO = 2.0 * _PIO2_HI, 2.0 * _PIO2_LO  # π, split as π/2 (doubling is exact)
 # fdlibm's rational approximation of asin(x) = x + x R(x²), |x| ≤ 1/2 (its __ieee754_acos)
@@ -153,7 +153,7 @@ def _taylor_sin_cos(z: float) -> tuple[float, float]:
 
 
 @njit(cache=True, error_model="numpy")
-def _cos_sin(y: float) -> tuple[float, float]:
+def cos_sin(y: float) -> tuple[float, float]:
     """cos y and sin y for |y| ≤ π, to an ulp or two of 1 (an azimuth node's position): beyond π/2
     from y ∓ π (split Cody–Waite, the first difference exact)."""
     far = abs(y) > 0.5 * math.pi
@@ -173,7 +173,7 @@ def _sin_cos_tilt(alpha: float) -> tuple[float, float]:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _exp_neg(v: float) -> float:
+def exp_neg(v: float) -> float:
     """eᵛ for v ≤ 0, to an ulp or two (0 below −708, where eᵛ leaves the normal floats): eᵛ = 2⁻ᵐ eʳ,
     m = round(−v / ln 2) ≤ 1022, r = v + m ln 2 (Cody–Waite), eʳ by its Taylor polynomial, and 2⁻ᵐ
     the product of the powers 2^(−2ᵇ) of m's bits (exact; numba has no bit casts to build it at
@@ -300,7 +300,7 @@ def _gaussian(s: float, c: float, inv_sigma: float, radial: bool) -> float:
     x e^{−x²/2} / cos³α (spatial, ``radial``) or e^{−x²/2} / cos³α (planar), x = tan α / σ."""
     ic = 1.0 / c
     x = s * ic * inv_sigma
-    g = _exp_neg(-0.5 * x * x)
+    g = exp_neg(-0.5 * x * x)
     return (g * x if radial else g) * (ic * ic * ic)
 
 
@@ -364,7 +364,7 @@ def _ring_sums(xs: NDArray[np.float64], gs: NDArray[np.float64], cs: NDArray[np.
             if full:
                 C, S, g = cs[j], sn[j], 1.0
             else:
-                cy, sy = _cos_sin(h * xs[j])
+                cy, sy = cos_sin(h * xs[j])
                 C, S, g = -cy, -sy, gs[j]
             su = a * C + b
             q = (q11 * C + q12 * S + q13) * C + (q22 * S + q23) * S + q33
@@ -389,7 +389,7 @@ def _ring_sums(xs: NDArray[np.float64], gs: NDArray[np.float64], cs: NDArray[np.
     # θ = π ± h x (x < 0 on the first half): cos θ = −cos(h x), sin θ = ∓sin(h x); mᵀu is the same
     # at both, and mᵀWm but for its part odd in sin θ
     for j in range(n // 2):
-        cy, sy = _cos_sin(h * xs[j])
+        cy, sy = cos_sin(h * xs[j])
         C, S, g = -cy, -sy, gs[j]
         su = a * C + b
         even = (q11 * C + q13) * C + q22 * S * S + q33

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..averaging import (AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, ConePass, Fixed, Graded, GradedPass,
-                         SlopePass)
+                         GradedSlopePass, SlopePass)
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
@@ -63,7 +63,8 @@ class RoughLaw(ImpactLaw):
         :class:`CoulombFacet`, :class:`CompliantFacet`, :class:`HuntCrossleyFacet`
         (the quadrature methods only: ``exact``, ``fixed``, ``adaptive``, ``graded``,
         ``monte-carlo``; naming ``ring``, ``tilt-table``, ``cone-pair``, ``cone-pass``,
-        ``graded-pass`` or ``slope-pass`` is a :class:`ParameterError`). Results record the facet law in ``method``:
+        ``graded-pass``, ``graded-slope-pass`` or ``slope-pass`` is a
+        :class:`ParameterError`). Results record the facet law in ``method``:
         ``"adaptive[coulomb]"`` (Newton facets keep the bare averaging name).
     flux : {"physical", "configuration"}
         Weight of a facet in (2.7). ``"physical"`` (default): pᵢ (−mᵢᵀu), the rate
@@ -78,7 +79,8 @@ class RoughLaw(ImpactLaw):
     method : str, Averaging subclass or instance
         How the integrals of (2.8) are computed: ``"auto"`` (default) or a name of
         :data:`mbimpact.averaging.METHODS` (``"exact"``, ``"ring"``, ``"tilt-table"``,
-        ``"graded-pass"``, ``"graded"``, ``"cone-pair"``, ``"cone-pass"``, ``"slope-pass"``, ``"fixed"``, ``"adaptive"``,
+        ``"graded-slope-pass"``, ``"graded-pass"``, ``"graded"``, ``"cone-pair"``,
+        ``"cone-pass"``, ``"slope-pass"``, ``"fixed"``, ``"adaptive"``,
         ``"monte-carlo"``). The result records which ran (``result.method``).
     rtol : float, optional
         Relative accuracy of the adaptive quadrature for measures that are not
@@ -120,7 +122,8 @@ class RoughLaw(ImpactLaw):
         ``repeat=True``: at most this many further applications of (2.8).
     repeat_budget : int
         ``repeat=True``: at most this many facets averaged for them, counted for the
-        quadratures refined in nodes a piece (fixed, adaptive, graded, graded-pass, cone-pair, cone-pass, slope-pass) by
+        quadratures refined in nodes a piece (fixed, adaptive, graded, graded-pass,
+        graded-slope-pass, cone-pair, cone-pass, slope-pass) by
         :meth:`Roughness.rule_size` (a :class:`GaussianSlopes` puts up to 60 n² facets on
         a velocity with a graded rule of n nodes a piece, 2 n² with its plain rule; a
         :class:`Cone` n). A contact still approaching at either limit is returned as it
@@ -160,13 +163,14 @@ class RoughLaw(ImpactLaw):
 
     For a nearly singular W (an arm near a singular posture) the kernels of (2.8)
     peak sharply where mᵀWm is smallest; ``"auto"`` then grades the rule towards
-    the peaks by sinh maps (``"graded"``; for one velocity on a :class:`Cone`, in one
-    compiled call: ``"graded-pass"``), converging with tens of nodes where a
-    uniform rule needs 10⁵. Single velocities on a :class:`Cone` take the first
-    adaptive pass in one compiled call (``"cone-pair"``; numba, loaded on first
-    use), or, where it does not settle them (a strongly anisotropic W), every level
-    of the adaptive rule in one call (``"cone-pass"``); batches at one W use
-    closed-form expansions (``"ring"``, ``"tilt-table"``).
+    the peaks by sinh maps (``"graded"``; for one velocity, in one compiled call:
+    ``"graded-pass"`` on a :class:`Cone`, ``"graded-slope-pass"`` on a spatial tilt
+    density), converging with tens of nodes where a uniform rule needs 10⁵. Single
+    velocities on a :class:`Cone` take the first adaptive pass in one compiled call
+    (``"cone-pair"``; numba, loaded on first use), or, where it does not settle them
+    (a strongly anisotropic W), every level of the adaptive rule in one call
+    (``"cone-pass"``); batches at one W use closed-form expansions (``"ring"``,
+    ``"tilt-table"``).
     """
 
     #: Upper bounds that keep a typo from turning into hours of work.
@@ -457,7 +461,7 @@ class RoughLaw(ImpactLaw):
                     Pk = more.P / physical[todo][:, None]
             count += 1
             if isinstance(method, _REFINED):  # the other methods cost little, or what the user asked for
-                graded = isinstance(method, (Graded, GradedPass))
+                graded = isinstance(method, (Graded, GradedPass, GradedSlopePass))
                 work += rough.rule_size(more.nodes, graded)
             nodes = max(nodes, more.nodes)
             err[todo] = np.maximum(err[todo], more.error)
@@ -549,7 +553,7 @@ def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
 
 
 # the methods whose ``nodes`` count a quadrature rule's nodes a piece (Roughness.rule_size gives its facets)
-_REFINED = (Fixed, Adaptive, Graded, GradedPass, ConePair, ConePass, SlopePass)
+_REFINED = (Fixed, Adaptive, Graded, GradedPass, GradedSlopePass, ConePair, ConePass, SlopePass)
 
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}

@@ -9,26 +9,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import mbimpact as mbi
-from mbimpact.averaging import AUTO_ORDER, Graded, GradedPass
-from mbimpact.averaging.refinement import peaked_rule
+from mbimpact.averaging import AUTO_ORDER, GradedPass
 
-from tests.helpers import UPRIGHT_UR5, mechanism, relative_du, seeds, spd, unit_velocities, upright_ur5_delassus
-
-EPS = np.finfo(float).eps
-
-
-def facets(spec, W, u, nodes):
-    """The facet count of the graded rule at ``nodes`` a piece, as the numpy rule counts it (its
-    rounding floor is 100 ε √facets)."""
-    return peaked_rule(spec, W, Graded.peaked, screen=False)(u[None], nodes)[1].shape[-1]
-
-
-def at_rounding(out, spec, W, u):
-    """Whether a result's last difference of levels is within the rounding that the stall test of the
-    adaptive rule allows: 100 ε √K amplified by tr(W) |P| / |W P|. There the decision to stop is rounding's."""
-    P = out.P[0]
-    amplification = np.trace(W) * np.linalg.norm(P) / np.linalg.norm(P @ W)
-    return out.error[0] <= 100 * EPS * math.sqrt(facets(spec, W, u, out.nodes)) * amplification
+from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, check_against_graded, mechanism, seeds,
+                           unit_velocities, upright_ur5_delassus)
 
 
 @given(seeds, st.floats(0.05, 1.5), st.sampled_from(["configuration", "physical"]), st.floats(3.0, 7.0),
@@ -41,39 +25,11 @@ def test_every_level_equals_the_graded_rule(seed, alpha, flux, log_cond, ur5):
     difference of two levels is itself rounding amplified by |W| |P| / |W P| (up to ~1e-8 for the UR5), so
     whether it falls below rtol = 1e-12 at this level or the next is rounding's decision, numpy's or the kernel's."""
     rng = np.random.default_rng(seed)
-    if ur5:
-        turn = rng.uniform(0.0, 2 * math.pi)
-        R = np.array([[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0.0, 0.0, 1.0]])
-        W = R @ upright_ur5_delassus() @ R.T
-    else:
-        W = spd(rng, 3, 10**log_cond)
+    W = anisotropic_delassus(rng, log_cond, ur5)
     cond = np.linalg.cond(W)
     law = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux)
     for u in unit_velocities(rng, 7):
-        assert GradedPass().worthwhile(law.spec, W, u[None]) == Graded().worthwhile(law.spec, W, u[None])
-        fast = GradedPass().average(law.spec, W, u[None])
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            slow = Graded().average(law.spec, W, u[None])
-        if slow is None:  # no graded rule for this W: no narrow peak of the kernels on this ring
-            assert fast is None
-            continue
-        warned = any(issubclass(w.category, mbi.AccuracyWarning) for w in caught)
-        stop = max(law.rtol, 100 * EPS * math.sqrt(facets(law.spec, W, u, slow.nodes)))  # the stopping bound
-        if fast is None:  # numpy warned, or its last difference was at the bound or rounding itself
-            assert warned or slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
-            continue
-        assert fast.method == "graded-pass"
-        assert fast.error[0] <= max(law.rtol, 100 * EPS * math.sqrt(facets(law.spec, W, u, fast.nodes)))
-        if warned:  # numpy stopped at rounding where the kernel's rounding fell below rtol
-            assert at_rounding(slow, law.spec, W, u)
-        if fast.nodes == slow.nodes:  # the same sums in another order
-            assert relative_du(fast.P, slow.P, W)[0] < 1e-14 * cond
-            assert abs(fast.error[0] - slow.error[0]) < 1e-13 * cond
-        else:  # a difference at the bound, decided otherwise by rounding: one level apart, both converged
-            assert fast.nodes in (2 * slow.nodes, slow.nodes // 2)
-            assert slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
-            assert relative_du(fast.P, slow.P, W)[0] < 10 * max(stop, fast.error[0], slow.error[0]) + 1e-14 * cond
+        check_against_graded(GradedPass(), law, W, u, cond)
 
 
 def test_a_near_singular_arm_takes_the_compiled_graded_rule():

@@ -205,7 +205,7 @@ def test_auto_picks_it_for_one_velocity_only():
     assert law.contact_impulses(W, U[:1]).method == "slope-pass"
     assert law.contact_impulses(W, U).method == "adaptive"
     assert law.replace(nodes=16).contact_impulses(W, U[:1]).method == "fixed"
-    assert law.contact_impulses(upright_ur5_delassus(), U[:1]).method == "graded"
+    assert law.contact_impulses(upright_ur5_delassus(), U[:1]).method == "graded-slope-pass"  # graded, compiled
     planar = mbi.RoughLaw(mbi.GaussianSlopes(0.3, dim=2), 0.5)
     assert planar.contact_impulses(W[:2, :2], np.array([[0.6, -0.8]])).method == "slope-pass"
     # max_nodes too small for rtol: the compiled pass declines, the adaptive rule runs and warns
