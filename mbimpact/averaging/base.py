@@ -35,6 +35,10 @@ class Averaging(ABC):
     """
 
     name: ClassVar[str]
+    #: The method whose ``"auto"`` screen (:meth:`worthwhile`) this one repeats for the single velocities
+    #: it treats (one row of a 3-D W, no fixed node count): ``"auto"`` then reuses the decision instead of
+    #: screening the same W twice (the compiled twins of ``"graded"``).
+    shares_screen_with: ClassVar[str | None] = None
 
     def supports(self, spec: AveragingSpec) -> bool:
         """Whether the method can average this measure at all (by default: the measure says so)."""

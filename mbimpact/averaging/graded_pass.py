@@ -44,6 +44,7 @@ class GradedPass(Averaging):
     ``"graded"`` would be, for single velocities without a fixed node count."""
 
     name: ClassVar[str] = "graded-pass"
+    shares_screen_with: ClassVar[str | None] = "graded"
 
     def supports(self, spec: AveragingSpec) -> bool:
         return super().supports(spec) and getattr(spec.roughness, "alpha", 0.0) > 0.0

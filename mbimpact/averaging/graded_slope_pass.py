@@ -83,6 +83,7 @@ class GradedSlopePass(Averaging):
     facet. Chosen by ``"auto"`` where ``"graded"`` would be, for single velocities without a fixed node count."""
 
     name: ClassVar[str] = "graded-slope-pass"
+    shares_screen_with: ClassVar[str | None] = "graded"
 
     def supports(self, spec: AveragingSpec) -> bool:
         rough = spec.roughness

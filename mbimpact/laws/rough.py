@@ -343,8 +343,15 @@ class RoughLaw(ImpactLaw):
             if out is None:
                 raise ParameterError(f"{self!r}: {self.method.reason(spec)}")
             return (_labelled(out, self.facet) if general else out), self.method
+        screened: dict[str, bool] = {}  # decisions a compiled twin's screen has already made
+        single = len(U) == 1 and spec.nodes is None and W.shape == (3, 3)
         for method in self._auto_methods():
-            if method.worthwhile(spec, W, U):
+            worthwhile = screened.get(method.name)
+            if worthwhile is None:
+                worthwhile = method.worthwhile(spec, W, U)
+                if single and method.shares_screen_with is not None:
+                    screened[method.shares_screen_with] = worthwhile
+            if worthwhile:
                 out = method.average(spec, W, U)
                 if out is not None:
                     return (_labelled(out, self.facet) if general else out), method
