@@ -25,7 +25,7 @@ settings.load_profile("ci")
 
 @pytest.fixture(scope="session", autouse=True)
 def compiled_kernels() -> None:
-    """Every compiled kernel of the package, loaded (or compiled, ~15 s on a fresh install) once before
+    """Every compiled kernel of the package, loaded (or compiled, ~40 s on a fresh install) once before
     any test, so that no test's time limit pays for the JIT."""
     mbi.compile_kernels()
 

@@ -1,15 +1,18 @@
-"""The compiled core of :class:`~mbimpact.averaging.ConePair`: one velocity on a cone, in one call.
+"""The compiled core of :class:`~mbimpact.averaging.ConePair` and :class:`~mbimpact.averaging.ConePass`:
+one velocity on a cone, in one call.
 
 The two integrals of (2.8) with the flux weights of (2.7) over the facing arc of a cone of tilt α,
-at n and at 2n azimuth nodes, their impulses P = (1+e) N / D and the relative difference of the
-two by the velocity change W P they produce — the first pass of the adaptive rule — compiled by
-numba (``njit``, cached on disk). It is imported on first use only: numba costs ~0.3 s to import,
+at n, 2n, 4n, … azimuth nodes, their impulses P = (1+e) N / D and the relative difference of two
+successive levels by the velocity change W P they produce — the first pass of the adaptive rule
+(:func:`cone_pair`), or all of its levels (:func:`cone_pass`) — compiled by numba (``njit``, cached
+on disk). The level sums are compensated (:func:`compensated_add`), and the stopping test is
+:func:`level_decision`, which the other compiled rules share. It is imported on first use only: numba costs ~0.3 s to import,
 more than ``import mbimpact`` may take (:data:`mbimpact.averaging.cone_pair.KERNELS`).
 
 The nodes are those of :func:`mbimpact.quadrature.rules.azimuth_rule`, measured from the azimuth
 ψ of u_t (θ = φ − ψ): the periodic trapezoid rule θ = 2πj/n on the full ring when the whole cone
 faces u, Gauss–Legendre on the facing arc θ ∈ π ± h otherwise. Both come from a table built once
-per n (:func:`rule_table`). Per node, with m = (s cos φ, s sin φ, c), s = sin α, c = cos α:
+per n and level count (:func:`rule_table`). Per node, with m = (s cos φ, s sin φ, c), s = sin α, c = cos α:
 
     mᵀu  = c u_n + s |u_t| cos θ,
     mᵀWm = q₀ + a₁ cos θ + b₁ sin θ + a₂ cos 2θ + b₂ sin 2θ   (the ring's harmonics, rotated by ψ),

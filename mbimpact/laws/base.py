@@ -172,8 +172,8 @@ class ImpactLaw(ABC):
         :func:`mbimpact.impact` calls this. A spatial impact of a law that keeps this pipeline runs it
         compiled on Pinocchio's factor of A(q) (:func:`mbimpact.metric.kernels.prepare_factor`), with
         the same checks, scalings and impulse as :meth:`apply_metric`, to rounding; the cases that
-        route declines (no approach, n⁰ out of reach, a rank-deficient W, magnitudes that overflow, a
-        singular A) take :meth:`apply_metric`, which names or treats them. A law with a counterpart
+        route declines (no approach, n⁰ out of reach, a W whose range projector is not the identity,
+        magnitudes that overflow, a singular A) take :meth:`apply_metric`, which names or treats them. A law with a counterpart
         in Pinocchio overrides this (:class:`NewtonLaw`: ``pin.impulseDynamics``).
         """
         if len(R) == 3 and self._compiled_route():
