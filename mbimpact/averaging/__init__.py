@@ -7,10 +7,10 @@ name                   what it does                                             
 ``exact``              finite sum over a finite facet set                             finite measures
 ``ring``               Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
 ``tilt-table``         Chebyshev tables of a tilt density in the incidence (exact)    tilt densities, ≥ 1024 rows
-``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity on a spatial tilt density, a peak < 0.15
-``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity on a cone, a peak < 0.15
+``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity (3-D), a peak < 0.15
+``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity, a peak < 0.15
 ``graded``             quadrature graded towards the peaks of a nearly singular W     a peak narrower than 0.15
-``cone-pair``          a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
+``cone-pair``          a cone's first adaptive pass (32 + 64 nodes) in one compiled call one velocity on a cone
 ``cone-pass``          a cone's whole adaptive rule in one compiled call              one velocity on a cone
 ``slope-pass``         a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
 ``fixed``              the measure's rule with ``nodes`` nodes                        ``nodes`` given
@@ -62,10 +62,10 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, GradedPass, Graded, ConePair, ConePass, SlopePass, Fixed, Adaptive,
-                MonteCarlo)
+    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, GradedPass, Graded, ConePair, ConePass, SlopePass,
+                Fixed, Adaptive, MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "graded-pass", "graded", "cone-pair", "cone-pass",
-                               "slope-pass", "fixed", "adaptive")
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "graded-pass", "graded",
+                               "cone-pair", "cone-pass", "slope-pass", "fixed", "adaptive")

@@ -6,8 +6,9 @@ at n, 2n, 4n, … azimuth nodes, their impulses P = (1+e) N / D and the relative
 successive levels by the velocity change W P they produce — the first pass of the adaptive rule
 (:func:`cone_pair`), or all of its levels (:func:`cone_pass`) — compiled by numba (``njit``, cached
 on disk). The level sums are compensated (:func:`compensated_add`), and the stopping test is
-:func:`level_decision`, which the other compiled rules share. It is imported on first use only: numba costs ~0.3 s to import,
-more than ``import mbimpact`` may take (:data:`mbimpact.averaging.cone_pair.KERNELS`).
+:func:`level_decision`, which the other compiled rules share. It is imported on first use only:
+numba costs ~0.3 s to import, more than ``import mbimpact`` may take
+(:data:`mbimpact.averaging.cone_pair.KERNELS`).
 
 The nodes are those of :func:`mbimpact.quadrature.rules.azimuth_rule`, measured from the azimuth
 ψ of u_t (θ = φ − ψ): the periodic trapezoid rule θ = 2πj/n on the full ring when the whole cone
@@ -33,8 +34,8 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "level_decision", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
-           "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
+__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "level_decision", "jit_seconds", "SETTLED",
+           "DEGENERATE_FACET", "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
 
 # status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
 # (for cone_pass, STALLED and CAPPED are the adaptive rule's AccuracyWarning cases: rounding, max_nodes)

@@ -40,8 +40,9 @@ class GradedPass(Averaging):
     """One velocity on a :class:`~mbimpact.Cone`: the graded rule for a nearly singular W (n, 2n, 4n, …
     nodes a piece until two levels agree to rtol) in one compiled call
     (:func:`mbimpact.averaging.graded_kernels.graded_pass`). Declines where ``"graded"`` would
-    decline, where it stops short of rtol, or on a node where the mechanism cannot push the facet. Chosen by ``"auto"`` where
-    ``"graded"`` would be, for single velocities without a fixed node count."""
+    decline, where it stops short of rtol, or on a node where the mechanism cannot push the facet.
+    Chosen by ``"auto"`` where ``"graded"`` would be, for single velocities without a fixed node
+    count."""
 
     name: ClassVar[str] = "graded-pass"
     shares_screen_with: ClassVar[str | None] = "graded"

@@ -172,9 +172,10 @@ class ImpactLaw(ABC):
         :func:`mbimpact.impact` calls this. A spatial impact of a law that keeps this pipeline runs it
         compiled on Pinocchio's factor of A(q) (:func:`mbimpact.metric.kernels.prepare_factor`), with
         the same checks, scalings and impulse as :meth:`apply_metric`, to rounding; the cases that
-        route declines (no approach, n⁰ out of reach, a W whose range projector is not the identity,
-        magnitudes that overflow, a singular A) take :meth:`apply_metric`, which names or treats them. A law with a counterpart
-        in Pinocchio overrides this (:class:`NewtonLaw`: ``pin.impulseDynamics``).
+        route declines (no approach, n⁰ out of reach, a W whose range projector is not the
+        identity, magnitudes that overflow, a singular A) take :meth:`apply_metric`, which names
+        or treats them. A law with a counterpart in Pinocchio overrides this
+        (:class:`NewtonLaw`: ``pin.impulseDynamics``).
         """
         if len(R) == 3 and self._compiled_route():
             kernels = METRIC_KERNELS.get()
@@ -222,7 +223,7 @@ class ImpactLaw(ABC):
         the same checks, scalings and impulse as :meth:`impulses` for the contact velocity it reports
         (to the last bit in a world-aligned contact frame, to rounding in another), in two calls
         instead of some thirty on 3-vectors. None for what the general route treats: no approach,
-        n⁰ out of reach, a rank-deficient W."""
+        n⁰ out of reach, a W whose range projector is not the identity (rank-deficient)."""
         kernels = METRIC_KERNELS.get()
         buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
         status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
