@@ -10,7 +10,7 @@ name                   what it does                                             
 ``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity (3-D), a peak < 0.15
 ``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity, a peak < 0.15
 ``graded``             quadrature graded towards the peaks of a nearly singular W     a peak narrower than 0.15
-``cone-pair``          a cone's first adaptive pass (32 + 64 nodes) in one compiled call one velocity on a cone
+``cone-pair``          a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
 ``cone-pass``          a cone's whole adaptive rule in one compiled call              one velocity on a cone
 ``slope-pass``         a tilt density's adaptive rule in one compiled call            one velocity on a tilt density
 ``fixed``              the measure's rule with ``nodes`` nodes                        ``nodes`` given
