@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import NonFiniteError, ParameterError, ShapeError
 
-__all__ = ["as_array", "as_vector", "as_scalar", "as_count", "quiet_overflow", "check_in_range"]
+__all__ = ["as_array", "as_vector", "as_scalar", "as_count", "quiet_overflow", "check_in_range", "FLOAT64"]
 
 
 def as_array(name: str, x: ArrayLike, ndim: int, shape: tuple[int | None, ...] | None = None) -> NDArray[np.float64]:
@@ -58,12 +58,13 @@ def as_vector(name: str, x: ArrayLike, n: int) -> NDArray[np.float64]:
     # would overflow, and numpy would warn about it (a RuntimeWarning leaking out of a valid call);
     # Python's float sum never warns, a NaN or ±inf makes it non-finite, and the rare finite vector
     # whose sum overflows takes the full check (np.isfinite(x).all() costs a single impact 3× more)
-    if type(x) is np.ndarray and x.dtype is _FLOAT64 and x.shape == (n,) and math.isfinite(sum(x.tolist())):
+    if type(x) is np.ndarray and x.dtype is FLOAT64 and x.shape == (n,) and math.isfinite(sum(x.tolist())):
         return x
     return as_array(name, x, 1, (n,))
 
 
-_FLOAT64 = np.dtype(np.float64)  # the native float64 descriptor, compared by identity on the hot path
+FLOAT64 = np.dtype(np.float64)
+"""The native float64 descriptor, compared by identity (``a.dtype is FLOAT64``) on hot paths."""
 
 
 def as_scalar(name: str, x: object, lo: float, hi: float, *, hi_open: bool = False, lo_open: bool = False) -> float:

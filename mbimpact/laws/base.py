@@ -185,8 +185,6 @@ class ImpactLaw(ABC):
             if status == kernels.NEAR_SINGULAR and _full_rank(kernels.world_delassus(buffer, len(v))):
                 status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, -math.inf, buffer)
             if status == kernels.READY:
-                A.setflags(write=False)
-                J.setflags(write=False)
                 return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
 

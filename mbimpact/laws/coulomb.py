@@ -34,10 +34,10 @@ depend on how it stopped). Only a 3-D slip that still turns is integrated: its O
 du_t/dp_n = b − μ W_tt û_t on the tangential impulse, the normal velocity following from P,
 and the normal work of the stage ∫u_n dp_n alongside, on increments from the stage's start.
 The integrator is Dormand–Prince 8(5,3); its steps never straddle u_t = 0, and each event is
-located exactly (Newton on the step length, each iterate a full step from the last accepted
-point). The turning slip hands over to a closed form as soon as the angle δ to the
-stable invariant direction it approaches makes the rest a straight line within the
-tolerance (δ (|u_t| + μ Δp) ≤ rtol), or once |u_t| is down to what the state resolves.
+located exactly (Newton on the step length from a quintic Hermite guess, each iterate a full
+step from the last accepted point). The turning slip hands over to a closed form as soon as
+the angle δ to the stable invariant direction it approaches makes the rest a straight line
+within the tolerance (δ (|u_t| + μ Δp) ≤ rtol), or once |u_t| is down to what the state resolves.
 
 A residual slip left at a stop is removed by the tangential impulse −W_tt⁺ u_t, which
 only dissipates (½ u_tᵀ W_tt⁺ u_t). A phase whose impulse lies in null(Jᵀ),
@@ -54,14 +54,16 @@ first use (numba's import alone takes longer than ``import mbimpact`` may; see
 :func:`compile_kernels` for that one-off cost). Until then, a single impact whose impulse is one
 formula (frictionless, from normal incidence while sticking is possible, or a 3-D slip certain to
 stop during compression) is computed here in floats and never needs them. Once they are loaded,
-every single impact is one compiled call from floats — the setup of W, the unit velocity and the
-impulse together — which costs less than those floats do in Python (the arithmetic is the same
-either way, to the last bit).
+every single impact is one compiled call — the setup of W, the unit velocity and the impulse
+together — which costs less than those floats do in Python (the arithmetic is the same either way,
+to the last bit). A mechanism's compiled route (:meth:`CoulombLaw.single_impulse`) has numba
+imported already, and loads them at its first impact.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from types import ModuleType
 from typing import Literal
 
@@ -210,7 +212,26 @@ class CoulombLaw(ImpactLaw):
 
     def single_impulse(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         """:meth:`contact_impulses` for one unit velocity ``U`` (1, 3) at a unit-trace ``W`` (3, 3), local
-        frame: one compiled call (:meth:`_single`) without the batch's arrays."""
+        frame: one compiled call without the batch's arrays (:func:`~mbimpact.laws.coulomb_kernels.impact_local`,
+        which reads W and U itself).
+
+        The compiled route of a mechanism calls this with numba imported already (its own kernels need it):
+        the first call then loads the phases from numba's cache (~0.06 s, once a process), and a closed form
+        costs half as much as in floats. Without numba, a closed form is computed in floats (:meth:`_single`)
+        and imports none of it.
+        """
+        kernels = KERNELS.module
+        if kernels is None and "numba" in sys.modules:
+            kernels = KERNELS.get()
+        if kernels is not None:
+            P = np.empty(U.shape)
+            try:
+                status, steps = kernels.impact_local(W, U, self._law(), P)
+            except TypeError:  # not float64 arrays: the floats below take them
+                status = -1
+            if status == 0:
+                return ContactImpulses(P, np.array([self.rtol if steps else 0.0]), max(steps, 1), "impulse-space")
+            # n⁰ out of reach, W rank-deficient, a failure or other shapes: the floats below name or treat them
         single = self._single(W.tolist(), U[0].tolist())
         if single is None:  # n⁰ out of reach or W rank-deficient by _single's own rounding: the batch names it
             return self.contact_impulses(W, U)

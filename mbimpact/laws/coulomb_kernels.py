@@ -6,17 +6,20 @@ forms for the phases of constant tangential rate, a Dormand–Prince 8(5,3) inte
 disk). It is imported on first use only: numba costs ~0.3 s to import, more than ``import
 mbimpact`` may take. :func:`jit_seconds` loads or compiles it and says how long that took.
 
-Two entry points, one compiled call each, on floats where they can be (numba's dispatch costs
-~20 ns a float and ~0.1 µs an array): :func:`impact_one`, a whole single impact from W and the
-contact velocity (the setup, the unit velocity and the impulse), and :func:`impact_rows`, the
-rows of a batch. Both take W as the tuple ``(d, w11, w12, w13, w21, w22, w23, w31, w32, w33)``
-(a planar W in the corners, the second tangential axis 0) and the law as the tuple of
-:data:`LAW_SIZE` floats ``(μ, e, restitution, rtol, jam, u_n zero, stop, max phases, max steps,
-rank cut, degenerate)``.
+Three entry points, one compiled call each (numba's dispatch costs ~20 ns a float and ~0.1 µs an
+array): :func:`impact_one`, a whole single impact from W and the contact velocity as floats (the
+setup, the unit velocity and the impulse); :func:`impact_local`, the same from the arrays W (d, d)
+and U (1, d) that :meth:`mbimpact.CoulombLaw.single_impulse` takes (reading them here is cheaper
+than their conversion to floats in Python); and :func:`impact_rows`, the rows of a batch.
+:func:`impact_one` and :func:`impact_rows` take W as the tuple ``(d, w11, w12, w13, w21, w22, w23,
+w31, w32, w33)`` (a planar W in the corners, the second tangential axis 0); all take the law as the
+tuple of :data:`LAW_SIZE` floats ``(μ, e, restitution, rtol, jam, u_n zero, stop, max phases, max
+steps, rank cut, degenerate)``.
 
 Everything is in floats on two small arrays, for speed and so that the arithmetic is the same
-operation for operation whatever runs it (CPython's ``math.hypot`` included, see
-:func:`py_hypot`):
+operation for operation whatever runs it (CPython's ``math.hypot`` included where the closed forms
+of :mod:`mbimpact.laws.coulomb` compute the same in Python, see :func:`py_hypot`; the integration,
+which nothing in Python mirrors, takes the cheaper :func:`_norm`):
 
 * the setup ``S`` (:data:`SETUP_SIZE` floats, what every row at one Delassus matrix shares, for
   W / tr W): the law and its tolerances, then the entries of W, W_tt⁺, the sticking rate, filled
@@ -40,12 +43,12 @@ import math
 import time
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 from numpy.typing import NDArray
 
-__all__ = ["impact_rows", "impact_one", "jit_seconds", "py_hypot", "NEWTON", "POISSON", "ENERGETIC", "MODES",
-           "LAW_SIZE", "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES", "BAD_TRACE",
-           "OUT_OF_REACH"]
+__all__ = ["impact_rows", "impact_one", "impact_local", "jit_seconds", "py_hypot", "NEWTON", "POISSON", "ENERGETIC",
+           "MODES", "LAW_SIZE", "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES",
+           "BAD_TRACE", "OUT_OF_REACH"]
 
 # ---------------------------------------------------------------------- layouts
 # the setup S: the law and its tolerances (the law tuple, as given), then d, tr W, the rows of W / tr W
@@ -204,6 +207,20 @@ def _square(x: float, S: NDArray[np.float64]) -> float:
     """Python's ``x ** 2``: libm's pow(x, 2.0), which differs from x * x in the last bit about once in
     1400. The exponent is read from S at run time: a constant 2.0 would be folded into x * x."""
     return math.pow(x, S[TWO])
+
+
+@njit(cache=True, error_model="numpy")
+def _norm(x: float, y: float) -> float:
+    """|(x, y)| as √(x² + y²) where no square over- or underflows, else :func:`py_hypot`.
+
+    For the integration of the turning slip, where it is evaluated at every stage on the critical
+    path: about five times cheaper than :func:`py_hypot`, within an ulp of it, and the same floats
+    compiled or interpreted (only the closed forms must match CPython's ``math.hypot``).
+    """
+    s = x * x + y * y
+    if 1e-290 < s < 1e290:  # the larger square is normal: the smaller one, if not, is below its rounding
+        return math.sqrt(s)
+    return py_hypot(x, y)
 
 
 # ---------------------------------------------------------------------- the setup
@@ -661,7 +678,7 @@ def _rhs(t: float, d1: float, d2: float, ub1: float, ub2: float, ub3: float, S: 
     """dP_t/dp = −μ û_t and u_n = dw/dp at s = p − p_b with ΔP_t = (d1, d2), from u_b at the base."""
     v1 = ub1 + S[W11] * d1 + S[W12] * d2 + S[W13] * t
     v2 = ub2 + S[W12] * d1 + S[W22] * d2 + S[W23] * t
-    k = -S[MU] / py_hypot(v1, v2)
+    k = -S[MU] / _norm(v1, v2)
     return k * v1, k * v2, ub3 + S[W13] * d1 + S[W23] * d2 + S[W33] * t
 
 
@@ -741,8 +758,10 @@ def _step(S: NDArray[np.float64], t: float, y0: float, y1: float, y2: float, k0_
     sc0 = atol + rtol * _max(abs(base1 + y0), abs(base1 + new0))
     sc1 = atol + rtol * _max(abs(base2 + y1), abs(base2 + new1))
     sc2 = atol + rtol * _max(abs(0.0 + y2), abs(0.0 + new2))
-    n5 = 0.0 + _square(s50 / sc0, S) + _square(s51 / sc1, S) + _square(s52 / sc2, S)
-    n3 = 0.0 + _square(s30 / sc0, S) + _square(s31 / sc1, S) + _square(s32 / sc2, S)
+    # (products, not libm's pow as Python's ** would be: nothing in Python mirrors this step)
+    e0, e1, e2, f0, f1, f2 = s50 / sc0, s51 / sc1, s52 / sc2, s30 / sc0, s31 / sc1, s32 / sc2
+    n5 = 0.0 + e0 * e0 + e1 * e1 + e2 * e2
+    n3 = 0.0 + f0 * f0 + f1 * f1 + f2 * f2
     if n5 == 0.0 and n3 == 0.0:
         return new0, new1, new2, 0.0
     return new0, new1, new2, abs(h) * n5 / math.sqrt((n5 + 0.01 * n3) * 3.0)
@@ -765,28 +784,66 @@ def _event(S: NDArray[np.float64], X: NDArray[np.float64], t: float, y0: float, 
 
 
 @njit(cache=True, error_model="numpy")
+def _event_curvature(S: NDArray[np.float64], X: NDArray[np.float64], v1: float, v2: float, k0: float, k1: float
+                     ) -> float:
+    """d²g/dp² of the stage's event function where the slip is (v1, v2) and dP_t/dp = (k0, k1) = −μ û_t.
+
+    Stronge's g'' is du_n/dp = c + bᵀk; the others' (u_n shifted) is bᵀ dk/dp, with
+    dk/dp = −μ (I − û ûᵀ) (du_t/dp) / |u_t| and du_t/dp = b + W_tt k.
+    """
+    b1, b2 = S[W13], S[W23]
+    if X[COMP] == 0.0 and S[KIND] == ENERGETIC:
+        return S[W33] + b1 * k0 + b2 * k1
+    d1 = b1 + S[W11] * k0 + S[W12] * k1
+    d2 = b2 + S[W12] * k0 + S[W22] * k1
+    r = _norm(v1, v2)
+    c, s = v1 / r, v2 / r
+    along = c * d1 + s * d2
+    q = -S[MU] / r
+    return b1 * (q * (d1 - c * along)) + b2 * (q * (d2 - s * along))
+
+
+@njit(cache=True, error_model="numpy")
 def _locate(S: NDArray[np.float64], X: NDArray[np.float64], p: float, y0: float, y1: float, y2: float, k0: float,
-            k1: float, k2: float, h: float, g0: float, dg0: float, g1: float, dg1: float, origin: float, ub1: float,
-            ub2: float, ub3: float, base1: float, base2: float, wb: float
+            k1: float, k2: float, h: float, g0: float, dg0: float, ddg0: float, g1: float, dg1: float, ddg1: float,
+            origin: float, ub1: float, ub2: float, ub3: float, base1: float, base2: float, wb: float
             ) -> tuple[float, float, float, float, float, float, float]:
     """The step length τ ∈ (0, h] at which the event function crosses 0, with the state there.
 
-    A cubic Hermite guess from both ends (the dense output), then Newton on τ with each g(τ) from a
-    full step of length τ, bracketed by bisection, down to the rounding of the normal impulse
-    origin + p + τ (``p`` is counted from ``origin``).
+    A guess from the quintic Hermite interpolant of g, g' and g'' at both ends (g'' from
+    :func:`_event_curvature`: after the cubic one of g and g', most events took a third full step),
+    then Newton on τ with each g(τ) from a full step of length τ, bracketed by bisection, down to the
+    rounding of the normal impulse origin + p + τ (``p`` is counted from ``origin``).
 
     Returns (τ, y, f(p + τ, y)) with y the state after the full step of length τ, the one taken here
     last (the caller need not take it again); NaN when τ = h, a step the caller has taken itself.
     """
-    m0, m1 = dg0 * h, dg1 * h
+    # the interpolant on s = τ / h ∈ [0, 1]: Newton from the secant's root, kept in its bracket by bisection
+    m0, m1, c0, c1 = dg0 * h, dg1 * h, ddg0 * h * h, ddg1 * h * h
+    if not (math.isfinite(c0) and math.isfinite(c1)):
+        c0 = c1 = 0.0
     t = g0 / (g0 - g1)
-    for _ in range(30):
-        t2, t3 = t * t, t * t * t
-        val = (2.0 * t3 - 3.0 * t2 + 1.0) * g0 + (t3 - 2.0 * t2 + t) * m0 + (-2.0 * t3 + 3.0 * t2) * g1 + (t3 - t2) * m1
-        der = (6.0 * t2 - 6.0 * t) * g0 + (3.0 * t2 - 4.0 * t + 1.0) * m0 + (-6.0 * t2 + 6.0 * t) * g1 + (
-            3.0 * t2 - 2.0 * t) * m1
-        nt = t - val / der if der > 0.0 else t
-        if not 0.0 < nt < 1.0 or abs(nt - t) <= 1e-15:
+    a, b = 0.0, 1.0
+    for _ in range(40):
+        t2 = t * t
+        t3 = t2 * t
+        t4 = t3 * t
+        t5 = t4 * t
+        val = ((1.0 - 10.0 * t3 + 15.0 * t4 - 6.0 * t5) * g0 + (t - 6.0 * t3 + 8.0 * t4 - 3.0 * t5) * m0
+               + (0.5 * t2 - 1.5 * t3 + 1.5 * t4 - 0.5 * t5) * c0 + (0.5 * t3 - t4 + 0.5 * t5) * c1
+               + (-4.0 * t3 + 7.0 * t4 - 3.0 * t5) * m1 + (10.0 * t3 - 15.0 * t4 + 6.0 * t5) * g1)
+        der = ((-30.0 * t2 + 60.0 * t3 - 30.0 * t4) * (g0 - g1) + (1.0 - 18.0 * t2 + 32.0 * t3 - 15.0 * t4) * m0
+               + (t - 4.5 * t2 + 6.0 * t3 - 2.5 * t4) * c0 + (1.5 * t2 - 4.0 * t3 + 2.5 * t4) * c1
+               + (-12.0 * t2 + 28.0 * t3 - 15.0 * t4) * m1)
+        if val < 0.0:
+            a = t
+        else:
+            b = t
+        nt = t - val / der if der != 0.0 else 0.5 * (a + b)
+        if not a < nt < b:
+            nt = 0.5 * (a + b)
+        if abs(nt - t) <= 1e-15 or b - a <= 1e-15:
+            t = nt
             break
         t = nt
     lo, hi = 0.0, h  # g(lo) < 0 <= g(hi)
@@ -807,12 +864,15 @@ def _locate(S: NDArray[np.float64], X: NDArray[np.float64], p: float, y0: float,
         ulp = 4e-16 * (origin + p + hi)
         if hi - lo <= ulp:
             break
-        nxt = tau - g / dg if dg > 0.0 else 0.5 * (lo + hi)
-        if abs(nxt - tau) <= ulp:
-            if g >= 0.0:
-                break  # converged from above: hi = tau
-            nxt = tau + ulp  # converged just below the root: step past it
-        tau = nxt
+        if not dg > 0.0:
+            tau = 0.5 * (lo + hi)
+            continue
+        nxt = tau - g / dg
+        if g >= 0.0 and tau - nxt <= ulp:
+            break  # converged from above: hi = tau
+        # aim half the rounding above the root: the iterate that lands on it then has g ≥ 0 and ends the
+        # search (aimed at the root itself, it lands below as often as above, and costs another full step)
+        tau = nxt + 0.5 * ulp
     return hi, at_hi[0], at_hi[1], at_hi[2], at_hi[3], at_hi[4], at_hi[5]
 
 
@@ -851,7 +911,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, boo
         wb = X[WK]  # 0: the work of restitution starts here
     v1 = ub1 + a11 * y0 + a12 * y1 + b1 * t
     v2 = ub2 + a12 * y0 + a22 * y1 + b2 * t
-    r = py_hypot(v1, v2)
+    r = _norm(v1, v2)
     h = 0.1 * r / _max(S[BNORM] + mu * S[ANORM], 1e-300)  # |du_t/dp| ≤ |b| + μ |W_tt|
     for _ in range(int(S[MAX_STEPS])):
         # the slip continued straight would stop after r / |dr/dp|: step a fraction of that at most
@@ -869,7 +929,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, boo
         t_new = t + h
         w1 = ub1 + a11 * n0 + a12 * n1 + b1 * t_new
         w2 = ub2 + a12 * n0 + a22 * n1 + b2 * t_new
-        r_new = py_hypot(w1, w2)
+        r_new = _norm(w1, w2)
         if not err <= 1.0 or w1 * v1 + w2 * v2 <= 0.0:  # refused (a turn through u_t = 0 too)
             h *= _max(0.2, 0.9 * err ** -0.125) if 1.0 < err < math.inf else 0.2
             if h <= 1e-15 * _max(pb + t, 1e-300):
@@ -881,8 +941,10 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, boo
         g1, dg1 = _event(S, X, t_new, n0, n1, n2, f0, f1, ub3, wb)
         ended = end == h
         if g1 >= 0.0 and g0 < 0.0:
-            tau, m0, m1, m2, q0, q1, q2 = _locate(S, X, t, y0, y1, y2, k0, k1, k2, h, g0, dg0, g1, dg1, pb, ub1,
-                                                  ub2, ub3, Pb1, Pb2, wb)
+            ddg0 = _event_curvature(S, X, v1, v2, k0, k1)
+            ddg1 = _event_curvature(S, X, w1, w2, f0, f1)
+            tau, m0, m1, m2, q0, q1, q2 = _locate(S, X, t, y0, y1, y2, k0, k1, k2, h, g0, dg0, ddg0, g1, dg1, ddg1,
+                                                  pb, ub1, ub2, ub3, Pb1, Pb2, wb)
             if tau < h:  # the state at t + τ: the full step from t that _locate took last (the same floats)
                 t_new = t + tau
                 n0, n1, n2, f0, f1, f2 = m0, m1, m2, q0, q1, q2
@@ -896,7 +958,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, boo
             f0, f1, f2 = _rhs(0.0, 0.0, 0.0, ub1, ub2, ub3, S)
             w1 = ub1 + a11 * n0 + a12 * n1 + b1 * t_new
             w2 = ub2 + a12 * n0 + a22 * n1 + b2 * t_new
-            r_new = py_hypot(w1, w2)
+            r_new = _norm(w1, w2)
             if _event(S, X, 0.0, n0, n1, n2, f0, f1, ub3, wb)[0] >= 0.0:  # restitution ends where it starts
                 _end_stage(S, X)
                 return 0, True, SLIP, False, 0.0, 0.0
@@ -908,7 +970,7 @@ def _integrate(S: NDArray[np.float64], X: NDArray[np.float64]) -> tuple[int, boo
         t, y0, y1, y2, k0, k1, k2, v1, v2, r = t_new, n0, n1, n2, f0, f1, f2, w1, w2, r_new
         X[P], X[PT1], X[PT2], X[WK] = pb + t, Pb1 + y0, Pb2 + y1, wb + y2
         # what u_t = u₋ + W_tt P_t + b p is worth: below that the slip has stopped for all we know
-        floor = _max(S[STOP] * tol, rtol * (S[ANORM] * py_hypot(X[PT1], X[PT2]) + S[BNORM] * X[P]))
+        floor = _max(S[STOP] * tol, rtol * (S[ANORM] * _norm(X[PT1], X[PT2]) + S[BNORM] * X[P]))
         if r <= floor:
             found, s1, s2 = _stable_direction(S, v1, v2)
             if not found:
@@ -1050,15 +1112,55 @@ def impact_one(w: tuple[float, ...], law: tuple[float, ...], x1: float, x2: floa
             X[INFO + 3])
 
 
+# impact_local's types, compiled when this module is imported (from numba's cache): any float64 2-D W and U
+# (C- or F-ordered, strided, read-only) convert to the read-only "A" arrays, so that no caller's layout
+# compiles another specialisation at its first call; the law tuple is LAW_SIZE floats
+_ANY = types.Array(types.float64, 2, "A", readonly=True)
+_LOCAL_SIGNATURE = types.Tuple((types.int64, types.int64))(_ANY, _ANY, types.UniTuple(types.float64, LAW_SIZE),
+                                                           types.Array(types.float64, 2, "C"))
+
+
+@njit([_LOCAL_SIGNATURE], cache=True, error_model="numpy")
+def impact_local(W: NDArray[np.float64], U: NDArray[np.float64], law: tuple[float, ...], out: NDArray[np.float64]
+                 ) -> tuple[int, int]:
+    """:func:`impact_one` on the arrays :meth:`mbimpact.CoulombLaw.single_impulse` takes: the Delassus
+    matrix ``W`` (d, d) and the velocity ``U`` (1, d) in the local frame, d = 2 or 3.
+
+    Writes the impulse into ``out`` (1, d) — the unit velocity's at W / tr W times |u| / tr W, the same
+    floats as :func:`impact_one`'s — and returns (status, integration steps); ``out`` is unset unless
+    the status is 0. A status of −1 is a shape other than these (nothing computed). Reading the arrays
+    here saves the caller their conversion to floats and their passing one by one (~1 µs of a call).
+    """
+    d = W.shape[0]
+    if not ((d == 3 or d == 2) and W.shape[1] == d and U.shape[0] == 1 and U.shape[1] == d and out.shape[0] == 1
+            and out.shape[1] == d):
+        return -1, 0
+    if d == 3:
+        w = (3.0, W[0, 0], W[0, 1], W[0, 2], W[1, 0], W[1, 1], W[1, 2], W[2, 0], W[2, 1], W[2, 2])
+        x1, x2, xn = U[0, 0], U[0, 1], U[0, 2]
+    else:
+        w = (2.0, W[0, 0], 0.0, W[0, 1], 0.0, 0.0, 0.0, W[1, 0], 0.0, W[1, 1])
+        x1, x2, xn = U[0, 0], 0.0, U[0, 1]
+    result = impact_one(w, law, x1, x2, xn)
+    status, steps, scale = result[0], result[4], result[5]
+    if status == 0:
+        out[0, 0] = result[1] * scale
+        if d == 3:
+            out[0, 1] = result[2] * scale
+        out[0, d - 1] = result[3] * scale
+    return status, steps
+
+
 def jit_seconds() -> float:
     """Wall time to make the kernels callable in this process (numba's import excluded: importing
-    this module does it): their machine code loaded from numba's on-disk cache (``__pycache__`` next
-    to this file), or compiled when that cache is missing or stale. The first call pays it; later
-    calls return near 0."""
+    this module does it, and loads :func:`impact_local`, whose signature is given, with what it calls):
+    their machine code loaded from numba's on-disk cache (``__pycache__`` next to this file), or
+    compiled when that cache is missing or stale. The first call pays it; later calls return near 0."""
     start = time.perf_counter()
     third = 1.0 / 3.0  # W = I / 3, μ = ½, Stronge's e = ½: a slip straight to its end
     w = (3.0, third, 0.0, 0.0, 0.0, third, 0.0, 0.0, 0.0, third)
     law = (0.5, 0.5, float(ENERGETIC), 1e-10, 1e-14, 1e-12, 1e-2, 64.0, 100.0, 1e-12, 1e-14)
     impact_rows(w, law, np.array([[0.6, 0.0, -0.8]]), np.empty((1, 3)), np.empty(1))
     impact_one(w, law, 0.6, 0.0, -0.8)
+    impact_local(np.array([w[1:4], w[4:7], w[7:]]), np.array([[0.6, 0.0, -0.8]]), law, np.empty((1, 3)))
     return time.perf_counter() - start

@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 __all__ = ["NewtonLaw"]
 
 _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and products of two cannot overflow
+_HUGE = 1e150  # magnitudes below it: their products of two, and sums of those, stay finite
 
 
 class NewtonLaw(ImpactLaw):
@@ -69,8 +70,6 @@ class NewtonLaw(ImpactLaw):
             d = len(R)
             buffer = np.empty(3 * len(v) + 4 * d)
             if kernels.newton(U, D, J, v, R, self.e, buffer):
-                A.setflags(write=False)
-                J.setflags(write=False)
                 return ImpactResult.from_buffer(buffer, A, J, self)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
 
@@ -108,8 +107,10 @@ class NewtonLaw(ImpactLaw):
         """:meth:`ImpactLaw.apply_batch` in closed form: Δv = P_n y for every row, with
         y = A⁻¹ Jᵀn⁰ solved once and P_n = −(1 + e) n⁰ᵀJ v / (n⁰ᵀJ y).
 
+        Only the normal impulses are computed here: the result forms V₊, Δv, P, U₋ and U₊ on first
+        access (:meth:`BatchResult.along_normal`), so that a batch pays for the fields it reads.
         The degenerate cases (a row that does not approach, n⁰ out of reach, magnitudes that
-        overflow) take the general route, which names them or treats them. No row
+        could overflow) take the general route, which names them or treats them. No row
         can still approach after a Newton impact (n⁰ᵀu₊ = −e n⁰ᵀu₋ ≥ 0): no check is needed for it.
         """
         metric = ContactMetric.from_arrays(A, J)
@@ -125,25 +126,22 @@ class NewtonLaw(ImpactLaw):
             y = metric.solver(jn)
             wnn = float(jn.dot(y))
             un = V.dot(jn)  # (B,): one pass over V
-            if not (wnn > 0.0 and -_BIG < un.min() and un.max() < 0.0):
+            un_min, un_max = float(un.min()), float(un.max())
+            if not (wnn > 0.0 and -_BIG < un_min and un_max < 0.0):
                 return super().apply_batch(A, J, V, frame)
-            Pn = (-(1.0 + self.e) / wnn) * un
-            # outer products as (B, 1)·(1, n) matrix products: exact (one multiplication an entry),
-            # and 3x faster than numpy's broadcasting over a short last axis
-            col = Pn[:, None]
-            dV = col.dot(y[None, :])
-            V_plus = V + dV
-            U = V.dot(Jm.T)
-            U_plus = U + col.dot(Jm.dot(y)[None, :])
-            # a NaN or inf propagates into the sums (so does an overflow of the sum itself: the
-            # general route then decides), one reduction each instead of a boolean array
-            total = float(V_plus.sum()) + float(U_plus.sum())
-        if not math.isfinite(total):
+            Pn = un
+            Pn *= -(1.0 + self.e) / wnn  # in place: a batch's time goes to fresh memory
+            # the outcome is formed on access (BatchResult.along_normal); bounds instead of its sums
+            # keep it finite: |V|, |Δv| ≤ max|P_n| max|y| and |J Δv| ≤ max|P_n| max|J y| below 1e150,
+            # and |J|² < 1e300 (jj above), so that every product of two and their sums stay finite.
+            # What fails them takes the general route, which names what overflows
+            Jy = Jm.dot(y)
+            v_max = max(float(V.max()), -float(V.min()))
+            pn_max = float(-(1.0 + self.e) / wnn * un_min)
+            jump_max = pn_max * max(float(np.abs(y).max()), float(np.abs(Jy).max()))
+        if not (v_max < _HUGE and jump_max < _HUGE):
             return super().apply_batch(A, J, V, frame)
-        return BatchResult(
-            V_minus=V.copy(), V_plus=V_plus, dV=dV, P=col.dot(n0[None, :]), U_minus=U, U_plus=U_plus, n0=n0.copy(),
-            A=metric.A, J=Jm, law=self, error_estimate=np.zeros(len(V)),
-        )
+        return BatchResult.along_normal(V.copy(), Pn, y, Jy, n0.copy(), metric.A, Jm, self)
 
     def apply_stack(self, A: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
                     R: NDArray[np.float64]) -> BatchResult | None:

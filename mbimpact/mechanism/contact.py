@@ -47,7 +47,8 @@ class Contact(ABC):
         Returns
         -------
         J : ndarray, shape (d, nv)
-            World-aligned for d = 3; rows (t₁, n⁰) of the plane of motion for d = 2.
+            World-aligned for d = 3; rows (t₁, n⁰) of the plane of motion for d = 2. A new array
+            at every call: :func:`mbimpact.impact` makes it read-only and its result keeps it.
         frame : ndarray, shape (d, d)
             Rotation whose last column is n⁰ in the coordinates of ``J``.
         """

@@ -22,6 +22,9 @@ from .mechanism import Mechanism
 __all__ = ["impact", "impact_batch"]
 
 
+_CHECKED: set[tuple[type, type, type]] = set()  # (mechanism, contact, law) classes that passed _check_parts
+
+
 def _check_parts(mech: object, contact: object, law: object) -> None:
     if not isinstance(mech, Mechanism):
         raise ParameterError(f"mech must be an mbimpact.Mechanism, got {type(mech).__name__}")
@@ -61,13 +64,19 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     NoImpactError, NoFacingFacetError
         The contact point does not approach the surface, or no facet faces it.
     """
-    if type(mech) is not Mechanism or not isinstance(contact, Contact) or not isinstance(law, ImpactLaw):
+    kinds = (type(mech), type(contact), type(law))
+    if kinds not in _CHECKED:  # the kinds of parts checked once, not on every call
         _check_parts(mech, contact, law)
+        if len(_CHECKED) > 1000:  # classes made on the fly: keep the set small
+            _CHECKED.clear()
+        _CHECKED.add(kinds)
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
     if J.shape != (d, mech.nv) or R.shape != (d, d):  # a user's Contact subclass: the laws' kernels trust shapes
         _bad_shapes(contact, J, R, d, mech.nv)
+    # the result keeps J: a contact that refilled one array at every call would change earlier results
+    J.setflags(write=False)
     return law.apply_mechanism(mech, q, v, J, R)
 
 

@@ -22,7 +22,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import offset_point_jacobian
-from ..common.validation import as_array, as_vector
+from ..common.validation import FLOAT64, as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from .robots import close_matches, model_path, robot_urdf
 
@@ -331,7 +331,15 @@ class Mechanism:
 
     def check_state(self, q: ArrayLike, v: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Validate ``q`` (nq,) and ``v`` (nv,); quaternions must be normalised."""
-        return self.check_configuration(q), as_vector("v", v, self._dims[1])
+        nq, nv = self._dims
+        # one pass for the usual call (both float64 vectors of the right lengths, finite: see as_vector
+        # for the float sums); anything else, or a sum that overflows, takes the checks that name it
+        if (type(q) is np.ndarray and type(v) is np.ndarray and q.dtype is FLOAT64 and v.dtype is FLOAT64
+                and q.shape == (nq,) and v.shape == (nv,) and math.isfinite(sum(q.tolist()) + sum(v.tolist()))):
+            if nq != nv and not pin.isNormalized(self.model, q, 1e-9):
+                return self.check_configuration(q), v  # names the block
+            return q, v
+        return self.check_configuration(q), as_vector("v", v, nv)
 
     # ------------------------------------------------------------ dynamics
     def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
@@ -369,8 +377,8 @@ class Mechanism:
         ``U`` and ``D`` are views of this thread's workspace, valid until the next call on this
         mechanism in this thread: read them at once.
         """
-        local = self.workspace()
-        data = local.data
+        local = self._local
+        data = getattr(local, "data", None) or self.workspace().data
         if getattr(local, "factor_of", None) is not data:  # views of the factor's memory, which Pinocchio
             local.U, local.D, local.factor_of = data.U, data.D, data  # never moves; kept with their Data
         A = pin.crba(self.model, data, q)
@@ -400,7 +408,7 @@ class Mechanism:
 
     def frame_jacobian(self, q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None) -> NDArray[np.float64]:
         """:meth:`point_jacobian` for a validated q, a frame index and an offset (hot path)."""
-        data = self.workspace().data
+        data = getattr(self._local, "data", None) or self.workspace().data
         # computeFrameJacobian also updates data.oMf[fid], used for the offset below
         J6 = pin.computeFrameJacobian(self.model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
         if J6.shape != (6, self._dims[1]):

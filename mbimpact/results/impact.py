@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..common.threads import single_blas_thread
 from . import quantities
 
 __all__ = ["ContactImpulses", "ImpactResult", "BatchResult"]
@@ -113,10 +114,11 @@ class ImpactResult:
         ``v_plus``, ``dv`` (n each), ``P``, ``u_minus``, ``u_plus``, ``n0`` (d each), with (d, n) the
         shape of ``J``; anything after them is ignored.
 
-        The buffer becomes the result's own and is made read-only; each vector is a view of it,
-        taken on first access (the compiled single-impact routes fill such a buffer,
-        :mod:`mbimpact.metric.kernels`, and a caller pays for the views it reads). ``A`` and ``J``
-        are kept as given.
+        The buffer, ``A`` and ``J`` become the result's own. Nothing is done for them before they are
+        read (the compiled single-impact routes fill such a buffer, :mod:`mbimpact.metric.kernels`, and
+        a caller pays only for what it reads): each vector is a view of the buffer taken on first
+        access, the buffer then made read-only first, and ``A`` or ``J`` is made read-only when first
+        read.
 
         Parameters
         ----------
@@ -126,24 +128,30 @@ class ImpactResult:
         law, error_estimate, nodes, method
             As for the constructor.
         """
-        buffer.setflags(write=False)
         self = cls.__new__(cls)
-        self.__dict__.update(_buffer=buffer, A=A, J=J, law=law, error_estimate=error_estimate, nodes=nodes,
-                             method=method)
+        state = self.__dict__
+        state["_buffer"], state["_A"], state["_J"], state["law"] = buffer, A, J, law
+        if error_estimate or nodes != 1 or method != "closed-form":  # else the class defaults stand
+            state.update(error_estimate=error_estimate, nodes=nodes, method=method)
         return self
 
     def __getattr__(self, name: str) -> Any:
-        # only reached for what the instance __dict__ lacks: a vector of from_buffer not read yet
-        place = _IN_BUFFER.get(name)
-        buffer = self.__dict__.get("_buffer")
-        if place is None or buffer is None:
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        d, n = self.J.shape
-        a, b, length = place
-        start = a * n + b * d
-        view = buffer[start:start + (n if length == "n" else d)]
-        self.__dict__[name] = view
-        return view
+        # only reached for what the instance __dict__ lacks: what from_buffer left to its first access
+        state = self.__dict__
+        buffer = state.get("_buffer")
+        if buffer is not None:
+            if name == "A" or name == "J":
+                array = state["_" + name]
+                array.setflags(write=False)
+                return state.setdefault(name, array)
+            place = _IN_BUFFER.get(name)
+            if place is not None:
+                buffer.setflags(write=False)  # before any view: the views of a read-only buffer are read-only
+                d, n = state["_J"].shape
+                a, b, length = place
+                start = a * n + b * d
+                return state.setdefault(name, buffer[start:start + (n if length == "n" else d)])
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     @property
     def I(self) -> NDArray[np.float64]:  # noqa: E743, N802 — the paper's name
@@ -212,12 +220,18 @@ class ImpactResult:
         )
 
 
+# the fields BatchResult.along_normal forms on first access
+_ALONG_NORMAL = frozenset({"dV", "V_plus", "U_minus", "U_plus", "P", "error_estimate"})
+
+
 @dataclass(frozen=True, eq=False)
 class BatchResult:
     """Results of many impacts evaluated together (rows), see :class:`ImpactResult`.
 
     ``A`` and ``J`` are shared, shapes (n, n) and (d, n), for a batch at one
     configuration, or per row, shapes (B, n, n) and (B, d, n); ``n0`` is (d,) or (B, d).
+    A batch of Newton's law at one configuration forms its fields on first access
+    (:meth:`along_normal`).
     """
 
     V_minus: NDArray[np.float64]
@@ -233,6 +247,65 @@ class BatchResult:
     error_estimate: NDArray[np.float64]
     nodes: int = 1
     method: str = "closed-form"
+
+    @classmethod
+    def along_normal(cls, V: NDArray[np.float64], Pn: NDArray[np.float64], y: NDArray[np.float64],
+                     Jy: NDArray[np.float64], n0: NDArray[np.float64], A: NDArray[np.float64],
+                     J: NDArray[np.float64], law: Any) -> BatchResult:
+        """A batch at one configuration whose impulses all lie along n⁰, P = P_n n⁰ (Newton's law),
+        with Δv = P_n y for one direction y = A⁻¹ Jᵀ n⁰ (1.1).
+
+        Only ``V_minus`` (the caller's own copy) and the normal impulses are stored; each other
+        field is formed from them on first access and then kept, with the arithmetic of an eager
+        batch (outer products as matrix products): a batch pays only for what it reads, one
+        allocation a field at most. Every array of such a batch is read-only (what the fields are
+        formed of is made so here).
+
+        Parameters
+        ----------
+        V : ndarray, shape (B, n)
+            Pre-impact velocities; kept as ``V_minus``.
+        Pn : ndarray, shape (B,)
+            Normal impulses.
+        y : ndarray, shape (n,)
+            A⁻¹ Jᵀ n⁰.
+        Jy : ndarray, shape (d,)
+            J y, the change of contact velocity per unit normal impulse.
+        n0 : ndarray, shape (d,)
+        A, J, law
+            As for the constructor (one configuration).
+        """
+        for a in (V, Pn, y, Jy, n0):  # what the fields are formed of must not change before they are
+            a.setflags(write=False)
+        self = cls.__new__(cls)
+        self.__dict__.update(V_minus=V, n0=n0, A=A, J=J, law=law, _normal=(Pn, y, Jy))
+        return self
+
+    def __getattr__(self, name: str) -> Any:
+        # only reached for what the instance __dict__ lacks: a field along_normal forms on first access
+        state = self.__dict__
+        normal = state.get("_normal")
+        if normal is None or name not in _ALONG_NORMAL:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        Pn, y, Jy = normal
+        column = Pn[:, None]
+        with single_blas_thread(len(Pn)):  # thin products, as in the batch itself
+            if name == "dV":
+                value = column.dot(y[None, :])
+            elif name == "V_plus":  # V₋ + Δv, without keeping Δv: one array formed, not two
+                value = column.dot(y[None, :])
+                value += self.V_minus
+            elif name == "U_minus":
+                value = self.V_minus.dot(self.J.T)
+            elif name == "U_plus":
+                value = column.dot(Jy[None, :])
+                value += self.U_minus
+            elif name == "P":
+                value = column.dot(self.n0[None, :])
+            else:  # error_estimate: a closed form
+                value = np.zeros(len(Pn))
+        value.setflags(write=False)
+        return state.setdefault(name, value)  # one array a field, even if threads race to form it
 
     @classmethod
     def stack(cls, results: list[ImpactResult]) -> BatchResult:

@@ -91,3 +91,76 @@ def test_impact_batch_names_a_bad_row_as_the_row_by_row_route_does(rng):
     Q[2, 3:7] *= 2.0
     with pytest.raises(mbi.ParameterError, match="not normalised"):
         mbi.impact_batch(mech, Q, V, contact, mbi.NewtonLaw(0.5))
+
+
+def _eager_newton_batch(law, A, J, V, n0):
+    """Newton's batch written out eagerly, with the arithmetic of BatchResult.along_normal."""
+    jn = n0 @ J
+    y = np.linalg.solve(A, jn)
+    Pn = (-(1.0 + law.e) / float(jn @ y)) * (V @ jn)
+    col = Pn[:, None]
+    dV = col.dot(y[None, :])
+    U = V.dot(J.T)
+    return dict(V_minus=V, dV=dV, V_plus=V + dV, U_minus=U, U_plus=U + col.dot((J @ y)[None, :]),
+                P=col.dot(n0[None, :]))
+
+
+def test_newton_batch_forms_its_fields_on_access(rng):
+    """Only V₋ and the normal impulses are stored; each field read later equals the eager batch's
+    (to the solve's rounding; V₊ = V₋ + Δv exactly), whatever the order of reading, and is kept."""
+    mech = mechanism("ur5")
+    q = mech.random_configuration(rng)
+    A, J, n0 = mech.mass_matrix(q), mech.point_jacobian(q, "tool0"), np.array([0.0, 0.0, 1.0])
+    V = rng.normal(size=(300, 6))
+    V[V @ J[2] > 0] *= -1
+    law = mbi.NewtonLaw(0.4)
+    eager = _eager_newton_batch(law, A, J, V, n0)
+    for order in (["U_plus", "V_plus", "P", "dV", "U_minus"], ["dV", "P", "U_minus", "V_plus", "U_plus"]):
+        batch = law.apply_batch(A, J, V, n0)
+        assert not {"dV", "V_plus", "U_minus", "U_plus", "P", "error_estimate"} & set(vars(batch))
+        for name in order:
+            np.testing.assert_allclose(getattr(batch, name), eager[name], rtol=1e-12, atol=1e-14)
+            assert getattr(batch, name) is getattr(batch, name)  # formed once
+        np.testing.assert_array_equal(batch.V_plus, batch.V_minus + batch.dV)
+        np.testing.assert_array_equal(batch.error_estimate, np.zeros(300))
+    assert not np.shares_memory(batch.V_minus, V)  # the caller's V may change later
+    V[:] = 0.0
+    assert np.all(batch.V_minus @ J[2] < 0)
+    np.testing.assert_allclose(batch.kappa, law.e, rtol=1e-12)
+
+
+def test_newton_batch_at_huge_magnitudes_takes_the_general_route():
+    """Velocities near 1e150 fail the lazy batch's bounds (its products could overflow): the general
+    route treats the rows, with the same outcome as the single impacts, or names what overflows."""
+    A, J, n0 = np.diag([2.0, 3.0]), np.eye(2), np.array([0.0, 1.0])
+    law = mbi.NewtonLaw(0.5)
+    V = np.array([[1e151, -1e151], [0.0, -1.0]])
+    batch = law.apply_batch(A, J, V, n0)
+    for i in range(2):
+        np.testing.assert_allclose(batch.V_plus[i], law.apply(A, J, V[i], n0).v_plus, rtol=1e-14)
+    with pytest.raises(mbi.NonFiniteError):
+        law.apply_batch(A, J, np.array([[1e308, -1e308]]), n0)
+
+
+def test_newton_batch_whose_contact_velocity_jump_overflows_is_named():
+    """J y can overflow where y does not (A tiny along one axis, J large on it): the general route
+    names it, as a single impact does, instead of a batch whose U₊ holds inf or NaN."""
+    A, J, n0 = np.diag([1e-305, 1.0]), np.array([[1.4e4, 0.0], [1.0, 1.0]]), np.array([0.0, 1.0])
+    V = np.array([[-1.0, -1.0], [-2.0, 0.5]])
+    law = mbi.NewtonLaw(0.5)
+    with pytest.raises(mbi.NonFiniteError) as single:
+        law.apply(A, J, V[0], n0)
+    with pytest.raises(mbi.NonFiniteError) as batch:
+        law.apply_batch(A, J, V, n0)
+    assert str(batch.value) == str(single.value)
+
+
+def test_newton_batch_arrays_are_read_only(rng):
+    """What a lazy batch forms its fields of cannot change under it, and the fields it forms are
+    read-only too."""
+    A, J = np.diag([1.0, 2.0, 3.0]), np.eye(3)
+    V = -np.abs(rng.normal(size=(5, 3)))
+    batch = mbi.NewtonLaw(0.5).apply_batch(A, J, V, [0, 0, 1])
+    for name in ("V_minus", "n0", "U_minus", "V_plus", "dV", "U_plus", "P", "error_estimate"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(batch, name)[0] = 1.0

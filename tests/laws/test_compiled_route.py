@@ -309,3 +309,22 @@ def test_a_nearly_singular_but_full_rank_delassus_matrix_stays_on_the_compiled_r
         warnings.simplefilter("ignore", mbi.NoSeparationWarning)
         mbi.impact(pend, np.array([0.4, 0.9]), vp if (Jp @ vp) @ Rp[:, -1] < 0 else -vp, tip, LAWS["cone"])
     assert calls  # rank 2: the general route, which projects
+
+
+def test_compiled_results_freeze_their_arrays_when_read(rng):
+    """A compiled route's result stores its buffer, A and J as they came; each becomes read-only
+    before the first read hands it out, and the views of the buffer are read-only too."""
+    mech = mbi.Mechanism.from_robot("ur5")
+    q = mech.random_configuration(rng)
+    J = mech.point_jacobian(q, "tool0")
+    contact = mbi.PointContact("tool0")
+    for law in (mbi.NewtonLaw(0.5), mbi.RoughLaw(mbi.Cone(0.3), 0.5)):
+        res = mbi.impact(mech, q, -J[2], contact, law)
+        assert not {"A", "J", "v_plus", "P"} & set(vars(res))
+        for name in ("A", "J", "v_plus", "P"):
+            array = getattr(res, name)
+            assert not array.flags.writeable, name
+            with pytest.raises(ValueError):
+                array[0] = 1.0
+        np.testing.assert_allclose(res.A, mech.mass_matrix(q), rtol=1e-14)
+        np.testing.assert_allclose(res.J, J, rtol=1e-14, atol=1e-15)

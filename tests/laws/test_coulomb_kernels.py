@@ -13,6 +13,7 @@ import contextlib
 import math
 import os
 import pickle
+import re
 import subprocess
 import sys
 import textwrap
@@ -332,3 +333,101 @@ def test_the_tableau_is_dop853s():
     for ours, theirs in ((kernels._A, tableau.A[:n, :n]), (kernels._B, tableau.B), (kernels._C, tableau.C[:n]),
                          (kernels._E5, tableau.E5[:n]), (kernels._E3, tableau.E3[:n])):
         assert np.array_equal(ours, theirs)
+
+
+# ---------------------------------------------------------------------- the single impact on arrays
+def local_problems() -> list[tuple[np.ndarray, np.ndarray, mbi.CoulombLaw]]:
+    """(W, U, law) of single impacts in the local frame, d = 2 and 3: closed forms, integrated turning
+    slips, every restitution hypothesis."""
+    return [(W, U[i:i + 1], mbi.CoulombLaw(e, mu, kind))
+            for W, U, e, mu, kind in kernel_problems() for i in range(len(U))]
+
+
+def test_impact_local_reads_the_arrays_as_impact_one_takes_floats():
+    """The arrays' entry point is impact_one on the same floats (bit for bit), whatever the arrays' layout:
+    F-ordered, strided and read-only arrays convert to its one compiled signature (none is added)."""
+    from mbimpact.laws import coulomb_kernels as kernels
+
+    integrated = 0
+    for W, U, law in local_problems():
+        d = len(W)
+        x = U[0].tolist()
+        one = kernels.impact_one(coulomb._flat(W.tolist()), law._law(), x[0], x[1] if d == 3 else 0.0, x[-1])
+        strided = np.zeros((2 * d, 2 * d))
+        strided[::2, ::2] = W
+        readonly = W.copy()
+        readonly.setflags(write=False)
+        for Wa in (W, np.asfortranarray(W), strided[::2, ::2], readonly):
+            P = np.empty((1, d))
+            status, steps = kernels.impact_local(Wa, U, law._law(), P)
+            assert (status, steps) == (one[0], one[4])
+            if status == 0:
+                expected = [one[1] * one[5], one[2] * one[5], one[3] * one[5]]
+                assert P[0].tolist() == (expected if d == 3 else [expected[0], expected[2]])
+        integrated += one[4] > 0
+    assert integrated >= 5
+    assert len(kernels.impact_local.signatures) == 1
+    status, _ = kernels.impact_local(np.eye(3), np.ones((2, 3)), law._law(), np.empty((1, 3)))
+    assert status == -1  # another shape: nothing computed
+
+
+def test_single_impulse_equals_the_floats_route():
+    """CoulombLaw.single_impulse (one compiled call on the arrays) gives what _single's floats give, to the
+    last bit, with the same step count and error estimate; inputs the compiled call does not take
+    (float32, a batch of rows) go to the floats."""
+    compile_kernels()
+    for W, U, law in local_problems():
+        if len(W) != 3:
+            continue
+        try:
+            single = law._single(W.tolist(), U[0].tolist())
+        except mbi.IntegrationError as exc:
+            with pytest.raises(mbi.IntegrationError, match=re.escape(str(exc))):
+                law.single_impulse(W, U)
+            continue
+        out = law.single_impulse(W, U)
+        if single is None:  # out of reach: the batch's route
+            assert out.P.tobytes() == law.contact_impulses(W, U).P.tobytes()
+            continue
+        p1, p2, pn, steps, scale, _ = single
+        assert out.P.tolist() == [[p1 * scale, p2 * scale, pn * scale]]
+        assert (out.nodes, out.error.tolist(), out.method) == (max(steps, 1), [law.rtol if steps else 0.0],
+                                                               "impulse-space")
+        W32, U32 = W.astype(np.float32), U.astype(np.float32)
+        p1, p2, pn, steps, scale, _ = law._single(W32.tolist(), U32[0].tolist())
+        assert law.single_impulse(W32, U32).P.tolist() == [[p1 * scale, p2 * scale, pn * scale]]
+        assert law.single_impulse(W, np.vstack([U, -U])).P.tobytes() == out.P.tobytes()  # its first row
+
+
+def test_norm_is_hypot_to_an_ulp():
+    """The integration's |(x, y)|: within an ulp of math.hypot, without over- or underflow."""
+    from mbimpact.laws.coulomb_kernels import _norm
+
+    rng = np.random.default_rng(7)
+    for lo, hi in [(-3, 3), (-200, 200), (-320, 308)]:
+        x = rng.normal(size=2000) * 10.0 ** rng.uniform(lo, hi, 2000)
+        y = rng.normal(size=2000) * 10.0 ** rng.uniform(lo, hi, 2000)
+        for a, b in zip(x.tolist(), y.tolist()):
+            exact = math.hypot(a, b)
+            assert abs(_norm(a, b) - exact) <= math.ulp(exact), (a, b)
+    assert _norm(0.0, 0.0) == 0.0 and _norm(-3e-320, 4e-320) == math.hypot(3e-320, 4e-320)
+    assert _norm(1e308, 1e308) == math.hypot(1e308, 1e308) and _norm(math.inf, math.nan) == math.inf
+    assert math.isnan(_norm(math.nan, 1.0))
+
+
+def test_a_curving_slip_to_the_end_of_compression_takes_few_steps():
+    """The UR5's sliding impact of the speed bench (its local unit-trace W and unit velocity; μ = 0.2,
+    plastic): the slip curves throughout, three steps reach the end of compression and two more locate
+    it (a quintic Hermite guess, then Newton aimed just past the root); the impulse is the fine
+    integration's."""
+    from tests.laws.test_coulomb_paths import reference
+
+    W = np.array([[0.3289499726465565, -0.04974230656233071, 0.164939985500229],
+                  [-0.04974230656233071, 0.22976109096926203, 0.05945786772841505],
+                  [0.164939985500229, 0.05945786772841505, 0.4412889363841815]])
+    U = np.array([[2.0, 1.0, -2.0]]) / 3.0
+    law = mbi.CoulombLaw(0.0, 0.2)
+    out = law.single_impulse(W, U)
+    assert 1 < out.nodes <= 5
+    np.testing.assert_allclose(W @ out.P[0], W @ reference(W, U[0], 0.2, 0.0, "energetic"), atol=1e-9)
+    assert abs(U[0, 2] + W[2] @ out.P[0]) <= 1e-15  # compression ended: n·u₊ = 0 to rounding
