@@ -114,11 +114,11 @@ class ImpactResult:
         ``v_plus``, ``dv`` (n each), ``P``, ``u_minus``, ``u_plus``, ``n0`` (d each), with (d, n) the
         shape of ``J``; anything after them is ignored.
 
-        The buffer, ``A`` and ``J`` become the result's own. Nothing is done for them before they are
-        read (the compiled single-impact routes fill such a buffer, :mod:`mbimpact.metric.kernels`, and
-        a caller pays only for what it reads): each vector is a view of the buffer taken on first
-        access, the buffer then made read-only first, and ``A`` or ``J`` is made read-only when first
-        read.
+        The buffer, ``A`` and ``J`` become the result's own, and nothing is done for them before
+        they are read (the compiled single-impact routes fill such a buffer,
+        :mod:`mbimpact.metric.kernels`, and a caller pays only for what it reads). Each vector is a
+        view of the buffer taken on first access (the buffer is made read-only before the first);
+        ``A`` and ``J`` are made read-only when first read.
 
         Parameters
         ----------
