@@ -19,7 +19,7 @@ name                   what it does                                             
 ====================== ============================================================== ===================
 
 ``RoughLaw(..., method="auto" | name | Averaging subclass or instance)``. With
-``"auto"`` the m       ethods are tried in :data:`AUTO_ORDER`; the first that supports the
+``"auto"`` the methods are tried in :data:`AUTO_ORDER`; the first that supports the
 measure, finds the case worthwhile and does not decline it at run time is used. The
 result records which method ran (``result.method``) and with how many nodes.
 """

@@ -34,7 +34,8 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 
-__all__ = ["rule_table", "cone_pair", "cone_pass", "compensated_add", "level_decision", "jit_seconds", "SETTLED",
+__all__ = ["rule_table", "cone_pair", "cone_pass", "adaptive_levels", "compensated_add", "level_decision",
+           "jit_seconds", "SETTLED",
            "DEGENERATE_FACET", "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
 
 # status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
@@ -195,12 +196,14 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
 
 
 @njit(cache=True, error_model="numpy")
-def _levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
-            stall_checks: bool, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-            error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+def adaptive_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
+                    levels: int, stall_checks: bool, configuration: bool, e: float, rtol: float, degenerate: float,
+                    P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
     """The adaptive rule's levels n, 2n, … (at most ``levels``) for one velocity: (status, final
     node count). With ``stall_checks``, :func:`mbimpact.averaging.refinement.refine`'s tests that
-    rounding stopped the refinement (STALLED) or that the next level would pass max_nodes (CAPPED)."""
+    rounding stopped the refinement (STALLED) or that the next level would pass max_nodes (CAPPED).
+    The body of :func:`cone_pair` and :func:`cone_pass`, without an explicit signature: other kernels
+    (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
     n = table.shape[1] // ((1 << levels) - 1)
     ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
     ut = math.hypot(ux, uy)
@@ -280,7 +283,7 @@ def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
         masks it), :data:`NOT_FACING` (a level with no weight) or :data:`NOT_SETTLED` (the
         difference exceeds the tolerance).
     """
-    return _levels(alpha, W, U, table, 2, False, configuration, e, rtol, degenerate, P, error)[0]
+    return adaptive_levels(alpha, W, U, table, 2, False, configuration, e, rtol, degenerate, P, error)[0]
 
 
 @njit(_PASS, cache=True, error_model="numpy")
@@ -302,7 +305,7 @@ def cone_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
     nodes : int
         The node count of the last level computed.
     """
-    return _levels(alpha, W, U, table, levels, True, configuration, e, rtol, degenerate, P, error)
+    return adaptive_levels(alpha, W, U, table, levels, True, configuration, e, rtol, degenerate, P, error)
 
 
 def jit_seconds() -> float:

@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 from ..quadrature.rules import gauss_legendre
 from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
 
-__all__ = ["rule_table", "ring_peaks", "graded_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
-           "NOT_PEAKED", "STALLED", "CAPPED"]
+__all__ = ["rule_table", "ring_peaks", "graded_pass", "graded_levels", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
+           "NOT_FACING", "NOT_PEAKED", "STALLED", "CAPPED"]
 
 # status codes of :func:`graded_pass`: the velocity is settled to rtol, or why not (STALLED and CAPPED are
 # the adaptive rule's AccuracyWarning cases: rounding amplified by an ill-conditioned W, max_nodes)
@@ -237,55 +237,12 @@ def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: ND
     return 0
 
 
-@njit(_PASS, cache=True, error_model="numpy")
-def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
-                peaked: float, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-                error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """(2.8) for one unit velocity on a cone by the graded rule, refined as the adaptive rule refines it:
-    n, 2n, 4n, … nodes a half-piece until two successive levels agree.
-
-    Parameters
-    ----------
-    alpha : float
-        Tilt of the cone, 0 < α < π/2.
-    W : ndarray, shape (3, 3)
-        Delassus matrix in the local frame.
-    U : ndarray, shape (1, 3)
-        Unit contact velocity u in the local frame, u_n < 0.
-    table : ndarray, shape (2, n (2^levels − 1))
-        The Gauss–Legendre nodes of every level (:func:`rule_table`).
-    levels : int
-        The number of levels, every one ``max_nodes`` allows.
-    peaked : float
-        The peak width below which the rule is graded (:attr:`mbimpact.averaging.Graded.peaked`).
-    configuration : bool
-        The facet weight of (2.7): ``"configuration"`` (w = −mᵀu / √(mᵀWm)) if True, else
-        ``"physical"`` (w = −mᵀu).
-    e : float
-        Facet restitution.
-    rtol : float
-        Two levels agree when their relative difference is within this, or within the rounding
-        floor 100 ε √K of a K-facet sum (K = (2k + 2) · nodes: the graded rule's facet count, k
-        the minima of q).
-    degenerate : float
-        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
-    P : ndarray, shape (1, 3)
-        Output: the last level's impulse P = (1+e) N / D, N = ∫ w (−mᵀu / mᵀWm) m and D = ∫ w over
-        the facing set, w the flux weight of (2.7).
-    error : ndarray, shape (1,)
-        Output: the error estimate |W (P_m − P_{m/2})| / |W P_m|.
-
-    Returns
-    -------
-    status : int
-        :data:`SETTLED` (``P`` and ``error`` are written); :data:`NOT_PEAKED` where
-        :meth:`mbimpact.Cone.graded_rule` gives no graded rule; :data:`STALLED` or :data:`CAPPED`
-        where the adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified
-        by an ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET` (a node on a
-        facet the mechanism cannot push), :data:`NOT_FACING` (no weight).
-    nodes : int
-        The node count a piece of the last level computed.
-    """
+@njit(cache=True, error_model="numpy")
+def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
+                  levels: int, peaked: float, configuration: bool, e: float, rtol: float, degenerate: float,
+                  P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
+    """:func:`graded_pass` without its explicit signature: other kernels
+    (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
     k = _peaks(_form(s, c, W), peaked, phi_star, eps_star)
@@ -342,6 +299,58 @@ def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
         previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
     return CAPPED, m
+
+
+@njit(_PASS, cache=True, error_model="numpy")
+def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+                peaked: float, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+                error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """(2.8) for one unit velocity on a cone by the graded rule, refined as the adaptive rule refines it:
+    n, 2n, 4n, … nodes a half-piece until two successive levels agree.
+
+    Parameters
+    ----------
+    alpha : float
+        Tilt of the cone, 0 < α < π/2.
+    W : ndarray, shape (3, 3)
+        Delassus matrix in the local frame.
+    U : ndarray, shape (1, 3)
+        Unit contact velocity u in the local frame, u_n < 0.
+    table : ndarray, shape (2, n (2^levels − 1))
+        The Gauss–Legendre nodes of every level (:func:`rule_table`).
+    levels : int
+        The number of levels, every one ``max_nodes`` allows.
+    peaked : float
+        The peak width below which the rule is graded (:attr:`mbimpact.averaging.Graded.peaked`).
+    configuration : bool
+        The facet weight of (2.7): ``"configuration"`` (w = −mᵀu / √(mᵀWm)) if True, else
+        ``"physical"`` (w = −mᵀu).
+    e : float
+        Facet restitution.
+    rtol : float
+        Two levels agree when their relative difference is within this, or within the rounding
+        floor 100 ε √K of a K-facet sum (K = (2k + 2) · nodes: the graded rule's facet count, k
+        the minima of q).
+    degenerate : float
+        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
+    P : ndarray, shape (1, 3)
+        Output: the last level's impulse P = (1+e) N / D, N = ∫ w (−mᵀu / mᵀWm) m and D = ∫ w over
+        the facing set, w the flux weight of (2.7).
+    error : ndarray, shape (1,)
+        Output: the error estimate |W (P_m − P_{m/2})| / |W P_m|.
+
+    Returns
+    -------
+    status : int
+        :data:`SETTLED` (``P`` and ``error`` are written); :data:`NOT_PEAKED` where
+        :meth:`mbimpact.Cone.graded_rule` gives no graded rule; :data:`STALLED` or :data:`CAPPED`
+        where the adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified
+        by an ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET` (a node on a
+        facet the mechanism cannot push), :data:`NOT_FACING` (no weight).
+    nodes : int
+        The node count a piece of the last level computed.
+    """
+    return graded_levels(alpha, W, U, table, levels, peaked, configuration, e, rtol, degenerate, P, error)
 
 
 def jit_seconds() -> float:

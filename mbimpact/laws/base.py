@@ -37,11 +37,11 @@ if TYPE_CHECKING:
 
 __all__ = ["ImpactLaw"]
 
-# det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen)
-_RANK_FLOOR = 1e-12
+#: det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen)
+RANK_FLOOR = 1e-12
 
 
-def _full_rank(W: NDArray[np.float64]) -> bool:
+def full_rank(W: NDArray[np.float64]) -> bool:
     """Whether :attr:`ContactMetric.range_projector` keeps all of W (every eigenvalue above 1e-12 λ_max,
     so that it projects on the whole space: P unchanged), with a margin of 10 for the ~ε λ_max error of
     the closed-form eigenvalues; below it the compiled route leaves W to the general one."""
@@ -181,8 +181,8 @@ class ImpactLaw(ABC):
             kernels = METRIC_KERNELS.get()
             A, U, D = mech.factor_arrays(q)
             buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
-            status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, _RANK_FLOOR, buffer)
-            if status == kernels.NEAR_SINGULAR and _full_rank(kernels.world_delassus(buffer, len(v))):
+            status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, RANK_FLOOR, buffer)
+            if status == kernels.NEAR_SINGULAR and full_rank(kernels.world_delassus(buffer, len(v))):
                 status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, -math.inf, buffer)
             if status == kernels.READY:
                 return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
@@ -225,8 +225,8 @@ class ImpactLaw(ABC):
         kernels = METRIC_KERNELS.get()
         buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
         status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
-                                                        _RANK_FLOOR, buffer)
-        if status == kernels.NEAR_SINGULAR and _full_rank(metric.W):
+                                                        RANK_FLOOR, buffer)
+        if status == kernels.NEAR_SINGULAR and full_rank(metric.W):
             status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
                                                             -math.inf, buffer)
         if status:
@@ -247,11 +247,21 @@ class ImpactLaw(ABC):
         W_local, U_local = kernels.local_views(buffer, J.shape[1])
         out = self.single_impulse(W_local, U_local)
         finite, un_plus = kernels.finish(out.P, R, speed / w_scale, buffer)
-        result = ImpactResult.from_buffer(buffer, A, J, self, float(out.error[0]), out.nodes, out.method)
+        return self._single_result(A, J, buffer, speed, finite, un_plus, float(out.error[0]), out.nodes, out.method)
+
+    def _single_result(self, A: NDArray[np.float64], J: NDArray[np.float64], buffer: NDArray[np.float64],
+                       speed: float, finite: bool, un_plus: float, error: float, nodes: int, method: str
+                       ) -> ImpactResult:
+        """The result of a spatial impact whose outcome a compiled ``finish`` wrote in ``buffer``
+        (``finite`` and ``un_plus`` are what it returned, ``speed`` is |u₋|): the overflow named, and a
+        contact that still approaches warned of."""
+        result = ImpactResult.from_buffer(buffer, A, J, self, error, nodes, method)
         if not finite:
             check_in_range("the impact's outcome (P, v₊ or u₊)", result.P, result.v_plus, result.u_plus)
         if not un_plus >= -SEPARATION_RTOL * speed:
-            kappa = -un_plus / float(result.n0.dot(result.u_minus))  # result.kappa, without its arrays
+            o = 3 * J.shape[1]  # result.kappa from the buffer (u₋ at o + 3, n⁰ at o + 9): no views made
+            kappa = -un_plus / (buffer[o + 3] * buffer[o + 9] + buffer[o + 4] * buffer[o + 10]
+                                + buffer[o + 5] * buffer[o + 11])
             warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
                  f"(kappa = {kappa:.6g} < 0); {self.separation_advice()}")
         return result

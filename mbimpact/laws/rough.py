@@ -9,27 +9,45 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import warnings
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..averaging import (AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, ConePass, Fixed, Graded, GradedPass,
                          GradedSlopePass, SlopePass)
+from ..averaging.cone_pair import KERNELS as CONE_KERNELS
+from ..averaging.graded_pass import KERNELS as GRADED_KERNELS
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
+from ..averaging.refinement import level_plan
+from ..common.compiled import KernelModule
+from ..common.geometry import DEGENERATE
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
 from ..facets.base import FacetLaw, method_label
 from ..facets.newton import NewtonFacet
+from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
-from ..results.impact import ContactImpulses
+from ..results.impact import ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
 from ..roughness.base import Roughness
-from .base import ImpactLaw
+from ..roughness.cone import Cone
+from .base import RANK_FLOOR, ImpactLaw, full_rank
 from .restitution import restitution_from
 
-__all__ = ["RoughLaw"]
+if TYPE_CHECKING:
+    from ..mechanism.mechanism import Mechanism
+
+__all__ = ["RoughLaw", "KERNELS"]
+
+#: The compiled single impact on a cone (:mod:`mbimpact.laws.rough_kernels`), loaded on first use.
+KERNELS = KernelModule("mbimpact.laws.rough_kernels")
+
+# what "auto" tries for one velocity on a cone, in order, when the compiled single impact stands for it
+# ("ring" and "fixed" are not worthwhile for one velocity without a fixed node count)
+_CONE_AUTO = ("ring", "graded-pass", "graded", "cone-pair", "cone-pass", "fixed", "adaptive")
 
 
 class RoughLaw(ImpactLaw):
@@ -221,11 +239,18 @@ class RoughLaw(ImpactLaw):
         self.facet = facet
         self.method = _method(method, self.spec)
         self._auto: tuple[AveragingSpec, tuple[Averaging, ...]] | None = None  # see _auto_methods
+        self._cone: tuple[AveragingSpec, tuple[Any, ...] | None] | None = None  # see _cone_plan
         if not isinstance(repeat, bool):
             raise ParameterError(f"repeat must be True or False, got {repeat!r}")
         self.repeat = repeat
         if self.method is not None and self.method.name == "monte-carlo":
             roughness.sample(np.random.default_rng(0), 2)  # fail now if it cannot be sampled
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the caches of "auto" (its methods, the compiled route's node tables) are rebuilt on use, not pickled
+        state = self.__dict__.copy()
+        state["_auto"] = state["_cone"] = None
+        return state
 
     # the settings, read back
     roughness = property(lambda self: self.spec.roughness, doc="The facet measure.")
@@ -295,6 +320,57 @@ class RoughLaw(ImpactLaw):
             big = np.abs(U).max(axis=1)
             speed = big * np.linalg.norm(U / big[:, None], axis=1)  # as ImpactLaw.impulses computes it
         return _AtSpeeds(self, speed).impulses(metric, U, R)
+
+    def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
+                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+        """:meth:`ImpactLaw.apply_mechanism`; one velocity on a :class:`~mbimpact.Cone` by ``"auto"`` runs
+        whole in one compiled call (:func:`mbimpact.laws.rough_kernels.cone_impact`): the metric, the
+        cone's compiled averaging methods and the outcome, the same arithmetic and decisions as the
+        pipeline's three steps. What those methods do not settle goes on in Python from the prepared
+        state; what the metric does not prepare takes :meth:`ImpactLaw.apply_mechanism`."""
+        plan = self._cone_plan() if len(R) == 3 else None
+        if plan is None:
+            return super().apply_mechanism(mech, q, v, J, R)
+        kernels = KERNELS.get()
+        A, U, D = mech.factor_arrays(q)
+        buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
+        status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
+            U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan, buffer)
+        metric = METRIC_KERNELS.get()
+        # W may be rank-deficient by its determinant: go on where its eigenvalues say it is not (as the base does)
+        if (status == kernels.NOT_PREPARED and nodes == metric.NEAR_SINGULAR
+                and full_rank(metric.world_delassus(buffer, len(v)))):
+            status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
+                U, D, J, v, R, DEGENERATE, -math.inf, *plan, buffer)
+        if status < kernels.DECLINED:
+            return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes,
+                                       kernels.METHODS[status])
+        if status == kernels.DECLINED:
+            return self._finish_single(metric, A, J, R, buffer, speed, w_scale)
+        return super().apply_mechanism(mech, q, v, J, R)
+
+    def _cone_plan(self) -> tuple[Any, ...] | None:
+        """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded
+        and the cone's node tables and level counts, Graded.peaked, the flux, e, rtol), or None where it
+        does not stand for this law's "auto": another method, a measure other than a cone, repeated
+        micro-impacts, facets other than Newton's, a fixed node count, levels short of the first pair,
+        or a subclass (which may override any step). Made once per spec."""
+        cached = self._cone
+        if cached is not None and cached[0] is self.spec:
+            return cached[1]
+        spec = self.spec
+        plan = None
+        if (type(self) is RoughLaw and self.method is None and not self.repeat and type(spec.roughness) is Cone
+                and spec.roughness.alpha > 0.0 and spec.nodes is None and not general_facets(spec)
+                and self._compiled_route() and tuple(m.name for m in self._auto_methods()) == _CONE_AUTO):
+            n, levels = level_plan(spec)
+            if levels >= 2 and 2 * spec.roughness.initial_nodes <= spec.max_nodes:
+                graded, cone = GRADED_KERNELS.get(), CONE_KERNELS.get()
+                plan = (spec.roughness.alpha, graded.rule_table(n, levels), levels,
+                        Graded.peaked, cone.rule_table(n, levels), levels,
+                        spec.flux == "configuration", spec.e, spec.rtol)
+        self._cone = (spec, plan)
+        return plan
 
     def _single_route(self) -> bool:
         # a speed-dependent facet law needs the physical speeds of impulses() above

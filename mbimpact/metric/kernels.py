@@ -28,7 +28,8 @@ from numba import njit, types
 from numpy.typing import NDArray
 
 __all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
-           "world_delassus", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE", "SPEED_INF", "NEAR_SINGULAR"]
+           "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
+           "SPEED_INF", "NEAR_SINGULAR"]
 
 #: Status codes of :func:`prepare_factor` and :func:`prepare_metric`: the law may run; the general
 #: route treats or names the case (no approach, n⁰ out of reach, an overflowing W, a singular A); J v
@@ -209,6 +210,21 @@ def _state(J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64
     return READY, speed, w_scale
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def prepare_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
+                 R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
+                 ) -> tuple[int, float, float]:  # pragma: no cover — compiled
+    """:func:`prepare_factor` without its explicit signature: for other kernels that run one impact whole
+    (:func:`mbimpact.laws.rough_kernels.cone_impact`), compiled into them for their own array types."""
+    n = v.shape[0]
+    if not _pivots_valid(D):
+        return DECLINED, 0.0, 0.0
+    o = 3 * n + 12
+    if not _delassus_into(U, D, J, buf[o + 21:o + 21 + 3 * n], buf[o:o + 9]):
+        return DECLINED, 0.0, 0.0
+    return _state(J, v, R, degenerate, rank_floor, buf)
+
+
 @njit(_PREPARE_FACTOR, cache=True, error_model="numpy")
 def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
                    R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
@@ -245,13 +261,7 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     speed, w_scale : float
         |u| and tr(Rᵀ W R).
     """
-    n = v.shape[0]
-    if not _pivots_valid(D):
-        return DECLINED, 0.0, 0.0
-    o = 3 * n + 12
-    if not _delassus_into(U, D, J, buf[o + 21:o + 21 + 3 * n], buf[o:o + 9]):
-        return DECLINED, 0.0, 0.0
-    return _state(J, v, R, degenerate, rank_floor, buf)
+    return prepare_into(U, D, J, v, R, degenerate, rank_floor, buf)
 
 
 @njit(_PREPARE_METRIC, cache=True, error_model="numpy")
@@ -268,6 +278,32 @@ def prepare_metric(Yt: NDArray[np.float64], W: NDArray[np.float64], J: NDArray[n
         for k in range(n):
             buf[o + 21 + i * n + k] = Yt[i, k]
     return _state(J, v, R, degenerate, rank_floor, buf)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def finish_into(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, buf: NDArray[np.float64]
+                ) -> tuple[bool, float]:  # pragma: no cover — compiled
+    """:func:`finish` without its explicit signature, for kernels that run one impact whole."""
+    n = (buf.shape[0] - 33) // 6
+    o = 3 * n
+    for i in range(3):
+        buf[o + i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
+    p0, p1, p2 = buf[o], buf[o + 1], buf[o + 2]
+    total = 0.0 + p0 + p1 + p2
+    W = buf[o + 12:o + 21]
+    un_plus = 0.0
+    for i in range(3):
+        x = buf[o + 3 + i] + (W[3 * i] * p0 + W[3 * i + 1] * p1 + W[3 * i + 2] * p2)
+        buf[o + 6 + i] = x
+        total += x
+        un_plus += buf[o + 9 + i] * x
+    y = o + 33
+    for k in range(n):
+        x = buf[y + k] * p0 + buf[y + n + k] * p1 + buf[y + 2 * n + k] * p2
+        buf[2 * n + k] = x
+        buf[n + k] = buf[k] + x
+        total += buf[n + k]
+    return math.isfinite(total), un_plus
 
 
 @njit(_FINISH, cache=True, error_model="numpy")
@@ -293,26 +329,7 @@ def finish(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, b
     un_plus : float
         n⁰ · u₊, the normal contact velocity after the impact.
     """
-    n = (buf.shape[0] - 33) // 6
-    o = 3 * n
-    for i in range(3):
-        buf[o + i] = (R[i, 0] * P_local[0, 0] + R[i, 1] * P_local[0, 1] + R[i, 2] * P_local[0, 2]) * scale
-    p0, p1, p2 = buf[o], buf[o + 1], buf[o + 2]
-    total = 0.0 + p0 + p1 + p2
-    W = buf[o + 12:o + 21]
-    un_plus = 0.0
-    for i in range(3):
-        x = buf[o + 3 + i] + (W[3 * i] * p0 + W[3 * i + 1] * p1 + W[3 * i + 2] * p2)
-        buf[o + 6 + i] = x
-        total += x
-        un_plus += buf[o + 9 + i] * x
-    y = o + 33
-    for k in range(n):
-        x = buf[y + k] * p0 + buf[y + n + k] * p1 + buf[y + 2 * n + k] * p2
-        buf[2 * n + k] = x
-        buf[n + k] = buf[k] + x
-        total += buf[n + k]
-    return math.isfinite(total), un_plus
+    return finish_into(P_local, R, scale, buf)
 
 
 @njit(_NEWTON, cache=True, error_model="numpy")

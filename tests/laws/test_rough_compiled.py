@@ -1,0 +1,126 @@
+"""One rough impact on a cone of a mechanism in one compiled call (RoughLaw.apply_mechanism,
+mbimpact.laws.rough_kernels.cone_impact).
+
+Reference: the same law through the pipeline's three steps — a subclass of RoughLaw, which keeps
+ImpactLaw.apply_mechanism (the metric kernel, "auto" in Python, the outcome kernel). The compiled call
+runs the same arithmetic and decisions, so the two agree to the last bit: the same method, node
+count, error estimate, outcome and warnings.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+from mbimpact.laws.rough import KERNELS
+
+from ..helpers import ROBOTS, last_frame, mechanism
+
+FIELDS = ("v_minus", "v_plus", "dv", "P", "u_minus", "u_plus", "n0")
+
+
+class Stepwise(mbi.RoughLaw):
+    """RoughLaw through the three steps: a subclass does not take the compiled single impact."""
+
+
+def _stepwise(law: mbi.RoughLaw) -> Stepwise:
+    return Stepwise(law.roughness, law.e, flux=law.flux, rtol=law.rtol, max_nodes=law.max_nodes)
+
+
+def _run(law: mbi.ImpactLaw, mech: mbi.Mechanism, q: np.ndarray, v: np.ndarray, contact: mbi.Contact):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = mbi.impact(mech, q, v, contact, law)
+        except mbi.ImpactError as exc:
+            return type(exc), str(exc).replace("Stepwise", "RoughLaw"), []
+    return result, None, [(w.category, str(w.message).replace("Stepwise", "RoughLaw")) for w in caught]
+
+
+def _assert_same(law: mbi.RoughLaw, mech: mbi.Mechanism, q: np.ndarray, v: np.ndarray, contact: mbi.Contact) -> str:
+    """The compiled call and the three steps give the same result to the bit; returns the method."""
+    got, got_error, got_warnings = _run(law, mech, q, v, contact)
+    want, want_error, want_warnings = _run(_stepwise(law), mech, q, v, contact)
+    assert (got_error, got_warnings) == (want_error, want_warnings)
+    if got_error is not None:
+        assert got == want  # the same exception class
+        return "error"
+    assert (got.method, got.nodes, got.error_estimate) == (want.method, want.nodes, want.error_estimate)
+    for f in FIELDS:
+        assert np.array_equal(getattr(got, f), getattr(want, f)), f
+    assert got.law is law
+    return got.method
+
+
+@pytest.fixture(scope="module")
+def stretched_ur5():
+    """The UR5 with its elbow straight: W's eigenvalues 1e7 apart, the cone's kernels peak on the ring."""
+    mech = mechanism("ur5")
+    q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    v = np.linalg.lstsq(mech.point_jacobian(q, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    return mech, q, v, mbi.PointContact("tool0")
+
+
+@pytest.fixture(scope="module")
+def solo_foot():
+    """A Solo12 foot on the ground (W's eigenvalues 30× apart): the cone's rule needs 128 nodes."""
+    mech = mechanism("solo12")
+    q = mech.neutral()
+    q[2] = 0.336
+    v = np.zeros(mech.nv)
+    v[[0, 2]] = 0.3, -1.0
+    return mech, q, v, mbi.PointContact("FL_FOOT")
+
+
+@pytest.mark.parametrize("flux", ["physical", "configuration"])
+def test_each_compiled_method_and_the_declined_cases_match_the_three_steps(flux, stretched_ur5, solo_foot):
+    cone = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux=flux)
+    ur5 = mechanism("ur5")
+    q = np.array([0.3, -1.0, 1.2, 0.4, -0.7, 0.2])
+    J = ur5.point_jacobian(q, "tool0")
+    generic = (ur5, q, -J[2] + 0.1 * J[0], mbi.PointContact("tool0"))
+    assert _assert_same(cone, *generic) == "cone-pair"
+    assert _assert_same(cone, *solo_foot) == "cone-pass"
+    assert _assert_same(cone, *stretched_ur5) == "graded-pass"  # W passes the rank screen on its eigenvalues
+    # declined: max_nodes stops the cone's levels short of rtol (AccuracyWarning, "adaptive" goes on)
+    assert _assert_same(cone.replace(max_nodes=64), *solo_foot) == "adaptive"
+    # not prepared: the contact point leaves the surface
+    mech, q, v, contact = solo_foot
+    assert _assert_same(cone, mech, q, -v, contact) == "error"
+
+
+@settings(max_examples=60, deadline=None)
+@given(robot=st.sampled_from(ROBOTS), seed=st.integers(0, 2**32 - 1), alpha=st.floats(0.05, 1.2),
+       e=st.floats(0.0, 1.0), flux=st.sampled_from(["physical", "configuration"]), tilted=st.booleans())
+def test_random_impacts_match_the_three_steps_to_the_bit(robot, seed, alpha, e, flux, tilted):
+    mech = mechanism(robot)
+    rng = np.random.default_rng(seed)
+    q = mech.random_configuration(rng)
+    normal = rng.normal(size=3) * 0.4 + [0.0, 0.0, 1.0] if tilted else [0.0, 0.0, 1.0]
+    contact = mbi.PointContact(last_frame(mech), normal=normal)
+    J, R = contact.jacobian(mech, q, 3)
+    v = -J.T @ R[:, -1] + rng.normal(size=mech.nv) * rng.uniform(0.0, 2.0)
+    _assert_same(mbi.RoughLaw(mbi.Cone(alpha), e, flux=flux), mech, q, v, contact)
+
+
+def test_a_cone_impact_loads_the_compiled_call_and_a_pickled_law_leaves_its_tables_behind():
+    import pickle
+
+    mech = mechanism("ur5")
+    q = mech.neutral() + 0.3
+    contact = mbi.PointContact("tool0")
+    law = mbi.RoughLaw(mbi.Cone(0.4), 0.5)
+    with KERNELS.unloaded():
+        assert not KERNELS.ready
+        mbi.impact(mech, q, -mech.point_jacobian(q, "tool0")[2], contact, law)
+        assert KERNELS.ready
+    # the law's node tables (tens of kB) are a cache: rebuilt after unpickling, not carried
+    assert len(pickle.dumps(law)) < 2_000
+    clone = pickle.loads(pickle.dumps(law))
+    v = -mech.point_jacobian(q, "tool0")[2]
+    assert np.array_equal(mbi.impact(mech, q, v, contact, clone).v_plus, mbi.impact(mech, q, v, contact, law).v_plus)
