@@ -328,23 +328,25 @@ class RoughLaw(ImpactLaw):
         cone's compiled averaging methods and the outcome, the same arithmetic and decisions as the
         pipeline's three steps. What those methods do not settle goes on in Python from the prepared
         state; what the metric does not prepare takes :meth:`ImpactLaw.apply_mechanism`."""
-        plan = self._cone_plan() if len(R) == 3 else None
-        if plan is None:
+        cached = self._cone  # _cone_plan(), its cache read here first: this is a single impact's hot path
+        plan = cached[1] if cached is not None and cached[0] is self.spec else self._cone_plan()
+        if plan is None or len(R) != 3:
             return super().apply_mechanism(mech, q, v, J, R)
         kernels = KERNELS.get()
         A, U, D = mech.factor_arrays(q)
         buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
         status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
             U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan, buffer)
+        if status < kernels.DECLINED:
+            return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
         metric = METRIC_KERNELS.get()
         # W may be rank-deficient by its determinant: go on where its eigenvalues say it is not (as the base does)
         if (status == kernels.NOT_PREPARED and nodes == metric.NEAR_SINGULAR
                 and full_rank(metric.world_delassus(buffer, len(v)))):
             status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
                 U, D, J, v, R, DEGENERATE, -math.inf, *plan, buffer)
-        if status < kernels.DECLINED:
-            return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes,
-                                       kernels.METHODS[status])
+            if status < kernels.DECLINED:
+                return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
         if status == kernels.DECLINED:
             return self._finish_single(metric, A, J, R, buffer, speed, w_scale)
         return super().apply_mechanism(mech, q, v, J, R)

@@ -1,6 +1,7 @@
 """``mbimpact bench --quick``: report, CSV and PNG, with measurements that make sense."""
 
 import csv
+import time
 
 import pytest
 
@@ -110,3 +111,23 @@ def test_the_cli_offers_every_bench_part():
         main(["bench", "--part", "nope"])
     choices = err.getvalue().split("choose from")[1]
     assert all(f"'{p}'" in choices for p in PARTS)
+
+
+def test_functions_timed_together_each_keep_their_best_round():
+    from mbimpact.apps.bench.common import per_call_together
+
+    calls = {"short": 0, "long": 0}
+
+    def spin(label: str, seconds: float):
+        def fn():
+            calls[label] += 1
+            end = time.perf_counter() + seconds
+            while time.perf_counter() < end:
+                pass
+        return fn
+
+    times = per_call_together({"short": spin("short", 2e-4), "long": spin("long", 8e-4)}, 2e-3, rounds=3)
+    assert list(times) == ["short", "long"]
+    assert 2e-4 <= times["short"] < 6e-4 and 8e-4 <= times["long"] < 2.4e-3  # each call at least its spin
+    assert times["long"] > 1.5 * times["short"]
+    assert calls["short"] >= 1 + 3 * 5 and calls["long"] >= 1 + 3 * 2  # warmed, then ≥ min_time a round

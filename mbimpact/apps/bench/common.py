@@ -14,7 +14,7 @@ import pinocchio as pin
 
 from ...mechanism import Mechanism
 
-__all__ = ["BenchRow", "machine_summary", "per_call", "moving_frame"]
+__all__ = ["BenchRow", "machine_summary", "per_call", "per_call_together", "moving_frame"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,30 @@ def per_call(fn: Callable[[], object], min_time: float) -> float:
             if elapsed >= min_time:
                 break
         best = min(best, elapsed / count)
+    return best
+
+
+def per_call_together(fns: dict[str, Callable[[], object]], min_time: float, rounds: int = 7) -> dict[str, float]:
+    """Mean wall times of several ``fn()`` measured in turn, round after round: each one's best round.
+
+    A busy machine slows down for stretches of a fraction of a second. Timed one after the other,
+    a function caught in such a stretch, the reference of a ratio above all, skews every ratio
+    formed with it; timed in alternation over ``rounds`` rounds of at least ``min_time`` seconds
+    each, every function has rounds outside the stretch, and their best is compared.
+    """
+    best = dict.fromkeys(fns, math.inf)
+    for fn in fns.values():
+        fn()  # warm caches
+    for _ in range(rounds):
+        for label, fn in fns.items():
+            count, start = 0, time.perf_counter()
+            while True:
+                fn()
+                count += 1
+                elapsed = time.perf_counter() - start
+                if elapsed >= min_time:
+                    break
+            best[label] = min(best[label], elapsed / count)
     return best
 
 
