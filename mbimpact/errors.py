@@ -14,7 +14,7 @@ import functools
 import os
 import sys
 import warnings
-from types import FrameType
+from types import CodeType, FrameType
 
 __all__ = [
     "ImpactError",
@@ -140,9 +140,24 @@ def warn(category: type[ImpactWarning], message: str) -> None:
     """
     frame: FrameType | None = sys._getframe(1)
     level = 2  # stacklevel 2 is the caller of this function
-    while frame is not None and _inside(frame.f_code.co_filename):
+    while frame is not None:
+        code = frame.f_code
+        inside = _CODE_INSIDE.get(code)
+        if inside is None:  # a code object's file does not change: decided once per code object
+            filename = code.co_filename
+            inside = _inside(filename)
+            # a relative file name depends on the working directory: decided again each time; and code
+            # made on the fly (exec, a loop of compile()) must not grow the map without bound
+            if os.path.isabs(filename) and len(_CODE_INSIDE) < 4096:
+                _CODE_INSIDE[code] = inside
+        if not inside:
+            break
         frame, level = frame.f_back, level + 1
     warnings.warn(message, category, stacklevel=level)
+
+
+# whether the file of a code object with an absolute file name belongs to the package (see warn)
+_CODE_INSIDE: dict[CodeType, bool] = {}
 
 
 def _inside(filename: str) -> bool:

@@ -217,3 +217,27 @@ def test_bad_state_shapes():
         mbi.impact(mech, np.zeros(5), np.ones(6), mbi.PointContact("tool0"), mbi.NewtonLaw(0.5))
     with pytest.raises(mbi.NonFiniteError, match="v"):
         mbi.impact(mech, np.zeros(6), np.full(6, math.nan), mbi.PointContact("tool0"), mbi.NewtonLaw(0.5))
+
+
+def test_warnings_name_the_users_line_however_deep_the_package_warns():
+    # a Solo12 foot pressed on the ground keeps approaching after the cone's impact: NoSeparationWarning,
+    # issued several calls deep in the package (impact → the law → its result) and named at the caller
+    import inspect
+    import warnings
+
+    solo = mbi.Mechanism.from_robot("solo12")
+    q = solo.neutral()
+    q[2] = 0.336
+    v = np.zeros(solo.nv)
+    v[[0, 2]] = 0.3, -1.0
+    contact, law = mbi.PointContact("FL_FOOT"), mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(3):  # the same code objects again: what is decided once per code object holds
+            line = inspect.currentframe().f_lineno + 1
+            mbi.impact(solo, q, v, contact, law)
+            assert (caught[-1].category, caught[-1].filename, caught[-1].lineno) == (
+                mbi.NoSeparationWarning, __file__, line)
+        namespace = {"mbi": mbi, "solo": solo, "q": q, "v": v, "contact": contact, "law": law}
+        exec(compile("\n\nmbi.impact(solo, q, v, contact, law)\n", "<user code>", "exec"), namespace)
+        assert (caught[-1].filename, caught[-1].lineno) == ("<user code>", 3)

@@ -250,6 +250,7 @@ class RoughLaw(ImpactLaw):
         # the caches of "auto" (its methods, the compiled route's node tables) are rebuilt on use, not pickled
         state = self.__dict__.copy()
         state["_auto"] = state["_cone"] = None
+        state.pop("_repr", None)
         return state
 
     # the settings, read back
@@ -289,6 +290,16 @@ class RoughLaw(ImpactLaw):
         return RoughLaw(roughness, **settings)
 
     def __repr__(self) -> str:
+        # cached for the settings it was made of: a warning of every impact in a loop names the law
+        key = (self.spec, self.method, self.repeat)
+        cached = self.__dict__.get("_repr")
+        if cached is not None and cached[0] == key:
+            return str(cached[1])
+        text = self._describe()
+        self._repr = (key, text)
+        return text
+
+    def _describe(self) -> str:
         extra = "" if self.flux == "physical" else f", flux={self.flux!r}"
         if self.method is not None:
             extra += f", method={self.method.name!r}"
