@@ -14,7 +14,7 @@ import functools
 import os
 import sys
 import warnings
-from types import CodeType, FrameType
+from types import FrameType
 
 __all__ = [
     "ImpactError",
@@ -141,23 +141,22 @@ def warn(category: type[ImpactWarning], message: str) -> None:
     frame: FrameType | None = sys._getframe(1)
     level = 2  # stacklevel 2 is the caller of this function
     while frame is not None:
-        code = frame.f_code
-        inside = _CODE_INSIDE.get(code)
-        if inside is None:  # a code object's file does not change: decided once per code object
-            filename = code.co_filename
+        filename = frame.f_code.co_filename
+        inside = _FILE_INSIDE.get(filename)
+        if inside is None:
             inside = _inside(filename)
-            # a relative file name depends on the working directory: decided again each time; and code
-            # made on the fly (exec, a loop of compile()) must not grow the map without bound
-            if os.path.isabs(filename) and len(_CODE_INSIDE) < 4096:
-                _CODE_INSIDE[code] = inside
+            # a relative file name depends on the working directory: decided again each time; and files
+            # made up on the fly (a loop of compile() with new names) must not grow the map without bound
+            if os.path.isabs(filename) and len(_FILE_INSIDE) < 4096:
+                _FILE_INSIDE[filename] = inside
         if not inside:
             break
         frame, level = frame.f_back, level + 1
     warnings.warn(message, category, stacklevel=level)
 
 
-# whether the file of a code object with an absolute file name belongs to the package (see warn)
-_CODE_INSIDE: dict[CodeType, bool] = {}
+# whether an absolute file name belongs to the package (see warn): one lookup a frame
+_FILE_INSIDE: dict[str, bool] = {}
 
 
 def _inside(filename: str) -> bool:

@@ -175,7 +175,8 @@ class ImpactLaw(ABC):
         route declines (no approach, n⁰ out of reach, a W whose range projector is not the
         identity, magnitudes that overflow, a singular A) take :meth:`apply_metric`, which names
         or treats them. A law with a counterpart in Pinocchio overrides this
-        (:class:`NewtonLaw`: ``pin.impulseDynamics``).
+        (:class:`NewtonLaw`: ``pin.impulseDynamics``), and so does a law that runs the whole impact
+        in one compiled call (:class:`RoughLaw` on a cone).
         """
         if len(R) == 3 and self._compiled_route():
             kernels = METRIC_KERNELS.get()

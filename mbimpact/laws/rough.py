@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..averaging import (AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, ConePass, Fixed, Graded, GradedPass,
-                         GradedSlopePass, SlopePass)
+                         GradedSlopePass, Ring, SlopePass)
 from ..averaging.cone_pair import KERNELS as CONE_KERNELS
 from ..averaging.graded_pass import KERNELS as GRADED_KERNELS
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
@@ -48,6 +48,9 @@ KERNELS = KernelModule("mbimpact.laws.rough_kernels")
 # what "auto" tries for one velocity on a cone, in order, when the compiled single impact stands for it
 # ("ring" and "fixed" are not worthwhile for one velocity without a fixed node count)
 _CONE_AUTO = ("ring", "graded-pass", "graded", "cone-pair", "cone-pass", "fixed", "adaptive")
+# levels of the compiled call's node tables (32, 64, 128 nodes for a cone: the anisotropic W of a foot
+# on the ground needs the third); a velocity that needs more goes on in Python with every level
+_CONE_LEVELS = 3
 
 
 class RoughLaw(ImpactLaw):
@@ -239,7 +242,7 @@ class RoughLaw(ImpactLaw):
         self.facet = facet
         self.method = _method(method, self.spec)
         self._auto: tuple[AveragingSpec, tuple[Averaging, ...]] | None = None  # see _auto_methods
-        self._cone: tuple[AveragingSpec, tuple[Any, ...] | None] | None = None  # see _cone_plan
+        self._cone: tuple[tuple[Any, ...], tuple[Any, ...] | None] | None = None  # see _cone_plan
         if not isinstance(repeat, bool):
             raise ParameterError(f"repeat must be True or False, got {repeat!r}")
         self.repeat = repeat
@@ -339,8 +342,7 @@ class RoughLaw(ImpactLaw):
         cone's compiled averaging methods and the outcome, the same arithmetic and decisions as the
         pipeline's three steps. What those methods do not settle goes on in Python from the prepared
         state; what the metric does not prepare takes :meth:`ImpactLaw.apply_mechanism`."""
-        cached = self._cone  # _cone_plan(), its cache read here first: this is a single impact's hot path
-        plan = cached[1] if cached is not None and cached[0] is self.spec else self._cone_plan()
+        plan = self._cone_plan()
         if plan is None or len(R) != 3:
             return super().apply_mechanism(mech, q, v, J, R)
         kernels = KERNELS.get()
@@ -367,22 +369,30 @@ class RoughLaw(ImpactLaw):
         and the cone's node tables and level counts, Graded.peaked, the flux, e, rtol), or None where it
         does not stand for this law's "auto": another method, a measure other than a cone, repeated
         micro-impacts, facets other than Newton's, a fixed node count, levels short of the first pair,
-        or a subclass (which may override any step). Made once per spec."""
-        cached = self._cone
-        if cached is not None and cached[0] is self.spec:
+        a ``"ring"`` worthwhile for one velocity, or a subclass (which may override any step).
+
+        Made again whenever what it was made of changes (the spec, ``method``, ``repeat``,
+        ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64
+        and 128 nodes for a cone): a velocity that needs more is declined by the compiled call and goes on with every level
+        in Python, so that a law never builds tables up to ``max_nodes`` (Gauss–Legendre nodes by the
+        thousand take seconds) for the few impacts that need them."""
+        key = (self.spec, self.method, self.repeat, Graded.peaked, Ring.min_rows)
+        cached = getattr(self, "_cone", None)  # (a law pickled before this cache existed has none)
+        if cached is not None and cached[0] == key:
             return cached[1]
         spec = self.spec
         plan = None
         if (type(self) is RoughLaw and self.method is None and not self.repeat and type(spec.roughness) is Cone
                 and spec.roughness.alpha > 0.0 and spec.nodes is None and not general_facets(spec)
-                and self._compiled_route() and tuple(m.name for m in self._auto_methods()) == _CONE_AUTO):
+                and key[4] > 1 and self._compiled_route()
+                and tuple(m.name for m in self._auto_methods()) == _CONE_AUTO):
             n, levels = level_plan(spec)
             if levels >= 2 and 2 * spec.roughness.initial_nodes <= spec.max_nodes:
+                levels = min(levels, _CONE_LEVELS)
                 graded, cone = GRADED_KERNELS.get(), CONE_KERNELS.get()
-                plan = (spec.roughness.alpha, graded.rule_table(n, levels), levels,
-                        Graded.peaked, cone.rule_table(n, levels), levels,
-                        spec.flux == "configuration", spec.e, spec.rtol)
-        self._cone = (spec, plan)
+                plan = (spec.roughness.alpha, graded.rule_table(n, levels), levels, Graded.peaked,
+                        cone.rule_table(n, levels), levels, spec.flux == "configuration", spec.e, spec.rtol)
+        self._cone = (key, plan)
         return plan
 
     def _single_route(self) -> bool:

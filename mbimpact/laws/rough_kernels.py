@@ -15,8 +15,8 @@ decisions, so that its result is the three steps' to the last bit:
   closed-form screens of W, which only rule out what that test rules out);
 * the cone's levels n, 2n, 4n, … run on one table and settle as ``"cone-pair"`` at 2n nodes,
   as ``"cone-pass"`` beyond (the pair's levels are not computed twice);
-* what neither settles (a graded rule short of rtol, a degenerate facet, rounding, ``max_nodes``)
-  is :data:`DECLINED`: the prepared state stays in the buffer, and ``"auto"`` goes on from it in
+* what neither settles (a graded rule short of rtol, a degenerate facet, rounding, ``max_nodes``,
+  or the last level of the tables it was given) is :data:`DECLINED`: the prepared state stays in the buffer, and ``"auto"`` goes on from it in
   Python (``"graded"``, ``"adaptive"``), which names or treats the case.
 
 Imported on first use (:data:`mbimpact.laws.rough.KERNELS`); the import compiles the explicit
@@ -67,12 +67,14 @@ def cone_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.fl
         Tilt of the cone, 0 < α < π/2.
     graded_table : ndarray
         The graded rule's nodes (:func:`mbimpact.averaging.graded_kernels.rule_table`) for
-        ``graded_levels`` levels.
+        ``graded_levels`` levels: all that ``max_nodes`` allows, or the first few (a velocity that
+        needs more is :data:`DECLINED`; the Python methods go on with every level).
     peaked : float
         The peak width below which the rule is graded (:attr:`mbimpact.averaging.Graded.peaked`).
     cone_table : ndarray
         The cone's nodes (:func:`mbimpact.averaging.cone_kernels.rule_table`) for ``cone_levels``
-        levels, n and 2n first (those of ``"cone-pair"``).
+        levels (at least 2), n and 2n first (those of ``"cone-pair"``); as for ``graded_table``, the
+        first few levels may stand for all.
     configuration, e, rtol
         The facet weight of (2.7) (True: ``"configuration"``), the facet restitution and the accuracy.
     buf : ndarray, shape (6n + 33,)
@@ -107,8 +109,8 @@ def cone_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.fl
         status, nodes = cone_kernels.adaptive_levels(alpha, W_local, U_local, cone_table, cone_levels, True,
                                                      configuration, e, rtol, degenerate, P, error)
         n = cone_table.shape[1] // ((1 << cone_levels) - 1)
-        # "cone-pair" decides at 2n nodes without the stall test: a stall there is its "not settled",
-        # and "cone-pass", which would then stall at the same level, declines too
+        # at 2n nodes "cone-pair" (no stall test) and "cone-pass" decide alike: the stall test cannot
+        # fire at the first comparison, which has no earlier difference to compare with
         if status != cone_kernels.SETTLED:
             return DECLINED, nodes, 0.0, speed, w_scale, 0.0, True
         code = CONE_PAIR if nodes == 2 * n else CONE_PASS

@@ -29,7 +29,7 @@ class Stepwise(mbi.RoughLaw):
 
 
 def _stepwise(law: mbi.RoughLaw) -> Stepwise:
-    return Stepwise(law.roughness, law.e, flux=law.flux, rtol=law.rtol, max_nodes=law.max_nodes)
+    return Stepwise(law.roughness, law.e, flux=law.flux, rtol=law.rtol, max_nodes=law.max_nodes, repeat=law.repeat)
 
 
 def _run(law: mbi.ImpactLaw, mech: mbi.Mechanism, q: np.ndarray, v: np.ndarray, contact: mbi.Contact):
@@ -124,3 +124,28 @@ def test_a_cone_impact_loads_the_compiled_call_and_a_pickled_law_leaves_its_tabl
     clone = pickle.loads(pickle.dumps(law))
     v = -mech.point_jacobian(q, "tool0")[2]
     assert np.array_equal(mbi.impact(mech, q, v, contact, clone).v_plus, mbi.impact(mech, q, v, contact, law).v_plus)
+
+
+def test_settings_changed_after_the_first_impact_are_honoured(solo_foot):
+    # the compiled route's plan is remade when what it was made of changes (here: repeat, set on the
+    # law after an impact; and Graded.peaked, a class setting of "auto")
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        once = mbi.impact(*solo_foot[:3], solo_foot[3], law)
+    assert not once.separates  # a foot pressed on the ground: one application still approaches
+    law.repeat = True
+    assert _assert_same(law, *solo_foot) == once.method
+    assert mbi.impact(*solo_foot[:3], solo_foot[3], law).separates
+
+
+def test_a_velocity_beyond_the_compiled_tables_goes_on_with_every_level():
+    # the UR5 near a stretched posture: its cone needs 256 nodes; the compiled call's tables stop at 128,
+    # it declines, and "cone-pass" goes on in Python with the tables up to max_nodes, to the same result
+    mech = mechanism("ur5")
+    q = np.array([0.0, -1.2, 0.0, -1.57, 0.0, 0.0])
+    v = np.linalg.lstsq(mech.point_jacobian(q, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    contact = mbi.PointContact("tool0")
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    assert _assert_same(law, mech, q, v, contact) == "cone-pass"
+    assert mbi.impact(mech, q, v, contact, law).nodes == 256

@@ -123,8 +123,9 @@ def coulomb(min_time: float, progress: Progress, quick: bool = True) -> list[Ben
         Jf = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED)
         pin.impulseDynamics(model, data, q, v_n, Jf[2:3], E, 0.0)
 
-    # each case timed in alternation with the reference (per_call_together): its ratios, and whether
-    # Coulomb beats PGS, do not depend on which stretch of a busy machine each measurement met
+    # each case timed in alternation with the reference (per_call_together), so that whether Coulomb
+    # beats PGS does not depend on which stretch of a busy machine each measurement met; the ratios
+    # divide by the reference's best time over both cases
     reference = "Jacobian + pin.impulseDynamics"
     case_rows: list[tuple[str, str, float, float, float]] = []  # case, method, mu, agreement, seconds
     t_ref = math.inf
