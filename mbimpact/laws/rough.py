@@ -373,9 +373,9 @@ class RoughLaw(ImpactLaw):
 
         Made again whenever what it was made of changes (the spec, ``method``, ``repeat``,
         ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64
-        and 128 nodes for a cone): a velocity that needs more is declined by the compiled call and goes on with every level
-        in Python, so that a law never builds tables up to ``max_nodes`` (Gauss–Legendre nodes by the
-        thousand take seconds) for the few impacts that need them."""
+        and 128 nodes for a cone): a velocity that needs more is declined by the compiled call and
+        goes on with every level in Python, so that a law never builds tables up to ``max_nodes``
+        (Gauss–Legendre nodes by the thousand take seconds) for the few impacts that need them."""
         key = (self.spec, self.method, self.repeat, Graded.peaked, Ring.min_rows)
         cached = getattr(self, "_cone", None)  # (a law pickled before this cache existed has none)
         if cached is not None and cached[0] == key:

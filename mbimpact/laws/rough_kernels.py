@@ -16,8 +16,9 @@ decisions, so that its result is the three steps' to the last bit:
 * the cone's levels n, 2n, 4n, … run on one table and settle as ``"cone-pair"`` at 2n nodes,
   as ``"cone-pass"`` beyond (the pair's levels are not computed twice);
 * what neither settles (a graded rule short of rtol, a degenerate facet, rounding, ``max_nodes``,
-  or the last level of the tables it was given) is :data:`DECLINED`: the prepared state stays in the buffer, and ``"auto"`` goes on from it in
-  Python (``"graded"``, ``"adaptive"``), which names or treats the case.
+  or the last level of the tables it was given) is :data:`DECLINED`: the prepared state stays in
+  the buffer, and ``"auto"`` goes on from it in Python (the same methods with every level, then
+  ``"graded"``, ``"adaptive"``), which names or treats the case.
 
 Imported on first use (:data:`mbimpact.laws.rough.KERNELS`); the import compiles the explicit
 signature, or loads it from numba's disk cache.
