@@ -40,18 +40,7 @@ def machine_summary() -> str:
 
 def per_call(fn: Callable[[], object], min_time: float) -> float:
     """Best of 3 mean wall times of ``fn()``, each over at least ``min_time`` seconds."""
-    fn()  # warm caches
-    best = math.inf
-    for _ in range(3):
-        count, start = 0, time.perf_counter()
-        while True:
-            fn()
-            count += 1
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_time:
-                break
-        best = min(best, elapsed / count)
-    return best
+    return per_call_together({"fn": fn}, min_time, rounds=3)["fn"]
 
 
 def per_call_together(fns: dict[str, Callable[[], object]], min_time: float, rounds: int = 7) -> dict[str, float]:
