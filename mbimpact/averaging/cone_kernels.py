@@ -18,8 +18,10 @@ per n and level count (:func:`rule_table`). Per node, with m = (s cos φ, s sin 
     mᵀu  = c u_n + s |u_t| cos θ,
     mᵀWm = q₀ + a₁ cos θ + b₁ sin θ + a₂ cos 2θ + b₂ sin 2θ   (the ring's harmonics, rotated by ψ),
 
-so a node costs its cos θ, sin θ and a few products. Run with ``NUMBA_DISABLE_JIT=1``, the same
-source runs interpreted.
+so a node costs its cos θ, sin θ and a few products. Both loops run in SIMD lanes: the arc's cos θ
+and sin θ are polynomials (:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`), and a level is
+summed in blocks of 32 nodes, reassociated, the blocks added with compensation. Run with
+``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from numba import njit, types
 from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
+from .slope_pass_kernels import cos_sin
 
 __all__ = ["rule_table", "cone_pair", "cone_pass", "adaptive_levels", "compensated_add", "level_decision",
            "jit_seconds", "SETTLED",
@@ -44,6 +47,13 @@ SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED, STALLED, CAPPED = 0, 1, 2, 3
 
 # machine epsilon (a constant of float64, safe to freeze into the compiled code)
 _EPS = float(np.finfo(float).eps)
+
+# fast-math flags of the node sums: reassociated into SIMD lanes, products fused (no finite-math
+# assumptions: a NaN must stay one)
+_FAST = {"reassoc", "contract"}
+
+# nodes a block of a level's sums: summed in SIMD lanes, the blocks added with compensation
+_BLOCK = 32
 
 # rows of the table of :func:`rule_table` (columns: the nodes of each level in turn)
 _GL_NODE, _GL_WEIGHT, _RING_COS, _RING_SIN, _RING_WEIGHT = range(5)
@@ -84,11 +94,13 @@ def rule_table(n: int, levels: int = 2) -> NDArray[np.float64]:
 
 
 # Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
-# that a caller's read-only or strided W or U does not make numba compile another specialisation
+# that a caller's read-only or strided W or U does not make numba compile another specialisation; the
+# table C-contiguous (strided loads would keep the node loops out of SIMD lanes)
 _IN2 = types.Array(types.float64, 2, "A", readonly=True)
-_SIGNATURE = types.int64(types.float64, _IN2, _IN2, _IN2, types.boolean, types.float64, types.float64, types.float64,
-                         types.float64[:, ::1], types.float64[::1])
-_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _IN2, types.int64, types.boolean, types.float64,
+_TABLE = types.Array(types.float64, 2, "C", readonly=True)
+_SIGNATURE = types.int64(types.float64, _IN2, _IN2, _TABLE, types.boolean, types.float64, types.float64,
+                         types.float64, types.float64[:, ::1], types.float64[::1])
+_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.boolean, types.float64,
                                        types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
 
 
@@ -144,35 +156,24 @@ def level_decision(coarse: NDArray[np.float64], fine: NDArray[np.float64], W: ND
     return NOT_SETTLED, err
 
 
-@njit(cache=True, error_model="numpy")
-def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, s: float, c: float, ut: float,
-           uz: float, cp: float, sp: float, harmonics: tuple[float, float, float, float, float], floor: float,
-           configuration: bool, e: float, out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
-    """The impulse P = (1+e) N / D of one level (``m`` nodes from column ``start`` of the table) into
-    ``out`` (3,); 0, or the status that declines (a degenerate facet, no weight)."""
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _block_sums(ct: NDArray[np.float64], st: NDArray[np.float64], wt: NDArray[np.float64], lo: int, hi: int,
+                s: float, c: float, ut: float, uz: float, harmonics: tuple[float, float, float, float, float],
+                floor: float, configuration: bool) -> tuple[float, float, float, float, int]:  # pragma: no cover
+    """Sums over the nodes ``lo`` … ``hi`` of a level (cos θ, sin θ and weight in ``ct``, ``st``, ``wt``):
+    D = Σ w(−mᵀu)… and the kernels Σ w (mᵀu)² g / q for g = 1, cos θ, sin θ (the flux weights of
+    (2.7)), and the count of nodes the mechanism cannot push (q ≤ ``floor``), left out. No calls,
+    no early exit, reassociated: the loop runs in SIMD lanes; the blocks are added with compensation."""
     q0, a1, b1, a2, b2 = harmonics
     d, k0, k1, k2 = 0.0, 0.0, 0.0, 0.0
-    ed, e0, e1, e2 = 0.0, 0.0, 0.0, 0.0  # their compensations
-    ct_prev = np.empty(m) if arc else np.empty(0)
-    st_prev = np.empty(m) if arc else np.empty(0)
-    for i in range(m):
-        j = start + i
-        if arc:  # the facing arc θ = π + h x: Gauss–Legendre nodes come in pairs x, −x (exactly)
-            mirror = m - 1 - i
-            if mirror < i:
-                ct, st = ct_prev[mirror], -st_prev[mirror]
-            else:
-                x = h * table[_GL_NODE, j]
-                ct, st = -math.cos(x), -math.sin(x)
-            ct_prev[i], st_prev[i] = ct, st
-            wt = h * table[_GL_WEIGHT, j]
-        else:  # the whole ring faces u: the periodic trapezoid rule from ψ
-            ct, st, wt = table[_RING_COS, j], table[_RING_SIN, j], table[_RING_WEIGHT, j]
-        q = q0 + a1 * ct + b1 * st + a2 * (ct * ct - st * st) + b2 * (2.0 * ct * st)
-        if not q > floor:
-            return DEGENERATE_FACET
+    bad = 0
+    for i in range(lo, hi):
+        cx, sx, w = ct[i], st[i], wt[i]
+        q = q0 + a1 * cx + b1 * sx + a2 * (cx * cx - sx * sx) + b2 * (2.0 * cx * sx)
+        bad += not q > floor
+        q = max(q, floor)  # no division by 0 in a lane that is left out (the level is declined then)
         # −mᵀu on the facing set, 0 off it (the trapezoid rule runs over the whole ring)
-        sweep = max(-(c * uz + s * ut * ct), 0.0)
+        sweep = max(-(c * uz + s * ut * cx), 0.0)
         if configuration:  # w = −mᵀu / √q, kernel (mᵀu)² / q^{3/2}
             r = 1.0 / math.sqrt(q)
             weight = sweep * r
@@ -180,10 +181,43 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
         else:  # w = −mᵀu, kernel (mᵀu)² / q
             weight = sweep
             kernel = sweep * sweep / q
-        d, ed = compensated_add(d, ed, wt * weight)
-        k0, e0 = compensated_add(k0, e0, wt * kernel)
-        k1, e1 = compensated_add(k1, e1, wt * kernel * ct)
-        k2, e2 = compensated_add(k2, e2, wt * kernel * st)
+        d += w * weight
+        k0 += w * kernel
+        k1 += w * kernel * cx
+        k2 += w * kernel * sx
+    return d, k0, k1, k2, bad
+
+
+@njit(cache=True, error_model="numpy")
+def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, s: float, c: float, ut: float,
+           uz: float, cp: float, sp: float, harmonics: tuple[float, float, float, float, float], floor: float,
+           configuration: bool, e: float, out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
+    """The impulse P = (1+e) N / D of one level (``m`` nodes from column ``start`` of the table) into
+    ``out`` (3,); 0, or the status that declines (a degenerate facet, no weight).
+
+    The nodes' cos θ and sin θ come from the table on the full ring, else from polynomials
+    (:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`, in SIMD lanes); the sums run in blocks
+    of :data:`_BLOCK` nodes (:func:`_block_sums`), added with compensation."""
+    if arc:  # the facing arc θ = π + h x
+        ct, st, wt = np.empty(m), np.empty(m), np.empty(m)
+        for i in range(m):
+            j = start + i
+            cx, sx = cos_sin(h * table[_GL_NODE, j])
+            ct[i], st[i], wt[i] = -cx, -sx, h * table[_GL_WEIGHT, j]
+    else:  # the whole ring faces u: the periodic trapezoid rule from ψ
+        ct, st, wt = table[_RING_COS, start:start + m], table[_RING_SIN, start:start + m], \
+            table[_RING_WEIGHT, start:start + m]
+    d, k0, k1, k2 = 0.0, 0.0, 0.0, 0.0
+    ed, e0, e1, e2 = 0.0, 0.0, 0.0, 0.0  # their compensations
+    for lo in range(0, m, _BLOCK):
+        bd, b0, b1, b2, bad = _block_sums(ct, st, wt, lo, min(lo + _BLOCK, m), s, c, ut, uz, harmonics, floor,
+                                          configuration)
+        if bad:
+            return DEGENERATE_FACET
+        d, ed = compensated_add(d, ed, bd)
+        k0, e0 = compensated_add(k0, e0, b0)
+        k1, e1 = compensated_add(k1, e1, b1)
+        k2, e2 = compensated_add(k2, e2, b2)
     d, k0, k1, k2 = d + ed, k0 + e0, k1 + e1, k2 + e2
     if not d > 0.0:
         return NOT_FACING

@@ -9,8 +9,10 @@ of facets, and the kernels of (2.8) with the flux weights of (2.7) peak there wi
 (:func:`mbimpact.quadrature.graded.ring_minima`, with :meth:`mbimpact.Cone.graded_rule`'s test that
 the ring has a narrow peak), the facing interval cut at the minima inside it, every piece halved
 and each half mapped by φ = a ± ε sinh t onto its graded end a, Gauss–Legendre in t, and the
-levels n, 2n, 4n, … nodes a piece with the adaptive rule's error estimate and stopping rule. Its
-result is :class:`~mbimpact.averaging.Graded`'s to rounding.
+levels n, 2n, 4n, … nodes a piece with the adaptive rule's error estimate and stopping rule. The
+nodes of a half-piece are computed and summed in SIMD lanes (:mod:`~mbimpact.averaging.graded_sums`),
+the half-pieces added with compensation. Its result is :class:`~mbimpact.averaging.Graded`'s to
+rounding.
 
 The module is imported on first use only (numba costs ~0.3 s to import:
 :data:`mbimpact.averaging.graded_pass.KERNELS`). Run with ``NUMBA_DISABLE_JIT=1``, the same source
@@ -29,6 +31,7 @@ from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
 from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
+from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
 
 __all__ = ["rule_table", "ring_peaks", "graded_pass", "graded_levels", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
            "NOT_FACING", "NOT_PEAKED", "STALLED", "CAPPED"]
@@ -57,8 +60,6 @@ _GRID = np.ascontiguousarray(np.vstack([
 ]))
 _GRID.flags.writeable = False
 
-# rows of the table of :func:`rule_table` (columns: the nodes of each level in turn)
-_GL_NODE_PLUS_ONE, _GL_WEIGHT = range(2)
 
 
 @functools.lru_cache(maxsize=32)
@@ -84,7 +85,7 @@ def rule_table(n: int, levels: int) -> NDArray[np.float64]:
     start = 0
     for m in counts:
         x, w = gauss_legendre(m)
-        table[_GL_NODE_PLUS_ONE, start:start + m], table[_GL_WEIGHT, start:start + m] = x + 1.0, w
+        table[NODE_PLUS_ONE, start:start + m], table[WEIGHT, start:start + m] = x + 1.0, w
         start += m
     table.flags.writeable = False
     return table
@@ -93,8 +94,10 @@ def rule_table(n: int, levels: int) -> NDArray[np.float64]:
 # Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
 # that a caller's read-only or strided W or U does not make numba compile another specialisation
 _IN2 = types.Array(types.float64, 2, "A", readonly=True)
+# the table C-contiguous: strided indexing would keep the node loops out of SIMD lanes
+_TABLE = types.Array(types.float64, 2, "C", readonly=True)
 _PEAKS = types.int64(types.float64, _IN2, types.float64)
-_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _IN2, types.int64, types.float64, types.boolean,
+_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.float64, types.boolean,
                                        types.float64, types.float64, types.float64, types.float64[:, ::1],
                                        types.float64[::1])
 
@@ -191,43 +194,27 @@ def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: ND
     """The impulse P = (1+e) N / D of (2.8) by the graded rule with ``m`` nodes a half-piece (columns
     ``start`` … ``start + m`` of the table) into ``out`` (3,); 0, or the status that declines.
 
-    ``ends`` (4, pieces): every half-piece's graded end a, direction ±1, width ε of its map and
-    T = asinh(ℓ / ε); its nodes are φ = a ± ε sinh t, t = T (x + 1) / 2, with weights
-    ε cosh t (T / 2) w / 2π (:func:`~mbimpact.quadrature.graded.graded_azimuth_rule`'s arithmetic)."""
-    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    ``ends`` (4, pieces): every half-piece's graded end a, direction ±1, width ε of its map
+    and T = asinh(ℓ / ε); its nodes are φ = a ± ε sinh t, t = T (x + 1) / 2, with weights
+    ε cosh t (T / 2) w / 2π (:func:`~mbimpact.quadrature.graded.graded_azimuth_rule`'s arithmetic),
+    summed half-piece by half-piece (:mod:`~mbimpact.averaging.graded_sums`) in W's own frame: a frame
+    turned to u_t would perturb W's entries by their rounding, which moves q near a minimum by far more
+    than the nodes' own rounding does, differently at every level."""
     d, n0, n1, n2 = 0.0, 0.0, 0.0, 0.0
     ed, e0, e1, e2 = 0.0, 0.0, 0.0, 0.0  # their compensations
+    cs, sn, pw = np.empty(m), np.empty(m), np.empty(m)
     for h in range(pieces):
-        g, sign, eps, T = ends[0, h], ends[1, h], ends[2, h], ends[3, h]
-        if not T > 0.0:
+        if not ends[3, h] > 0.0:
             continue  # a zero-length half-piece (a minimum outside the facing interval): weight 0
-        for i in range(start, start + m):
-            t = T * table[_GL_NODE_PLUS_ONE, i] / 2.0
-            # sinh t and cosh t from one exponential (sinh's cancellation for small t moves φ by ~ ε · ε_map,
-            # far below the rounding of φ itself)
-            x = math.exp(t)
-            y = 1.0 / x
-            phi = g + sign * eps * (0.5 * (x - y))
-            p = eps * (0.5 * (x + y)) * (T / 2.0) * table[_GL_WEIGHT, i] / (2.0 * math.pi)
-            m0, m1 = s * math.cos(phi), s * math.sin(phi)
-            sweep = -(m0 * ux + m1 * uy + c * uz)  # −mᵀu: the facet faces u where it is > 0 (G* of (2.7))
-            if not (sweep > 0.0 and p > 0.0):
-                continue
-            # q = (m W)·m, as the numpy rule forms it
-            w0 = m0 * W[0, 0] + m1 * W[1, 0] + c * W[2, 0]
-            w1 = m0 * W[0, 1] + m1 * W[1, 1] + c * W[2, 1]
-            w2 = m0 * W[0, 2] + m1 * W[1, 2] + c * W[2, 2]
-            q = w0 * m0 + w1 * m1 + w2 * c
-            if not q > floor:
-                return DEGENERATE_FACET  # the numpy rule drops such a facet; this kernel leaves it to it
-            # the weight of (2.7) (−mᵀu, or −mᵀu / √q for the configuration flux), times the Newton
-            # impulse coefficient −mᵀu / q of the facet
-            weight = p * (sweep / math.sqrt(q) if configuration else sweep)
-            wc = weight * (sweep / q)
-            d, ed = compensated_add(d, ed, weight)
-            n0, e0 = compensated_add(n0, e0, wc * m0)
-            n1, e1 = compensated_add(n1, e1, wc * m1)
-            n2, e2 = compensated_add(n2, e2, wc * c)
+        half_piece_nodes(start, m, table, ends[0, h], ends[1, h], ends[2, h], ends[3, h], 1.0, cs, sn, pw)
+        hd, h0, h1, h2, _, bad = half_piece_sums(m, cs, sn, pw, s, c, U[0, 0], U[0, 1], U[0, 2], W[0, 0], W[0, 1],
+                                                 W[1, 1], W[0, 2], W[1, 2], W[2, 2], floor, configuration)
+        if bad:
+            return DEGENERATE_FACET  # the numpy rule drops such a facet; this kernel leaves it to it
+        d, ed = compensated_add(d, ed, hd)
+        n0, e0 = compensated_add(n0, e0, h0)
+        n1, e1 = compensated_add(n1, e1, h1)
+        n2, e2 = compensated_add(n2, e2, h2)
     d = d + ed
     if not d > 0.0:
         return NOT_FACING

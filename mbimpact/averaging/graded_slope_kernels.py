@@ -14,10 +14,10 @@ forms the graded tilt nodes of every level (graded_tilt_rule's arithmetic; the c
 the measure's density p(α) dα in one numpy call, so any tilt density works), and
 :func:`graded_slope_pass`, ring after ring, finds the minima of q (256-point grid, Newton on q' = 0,
 widths capped by the quartic one), cuts the facing interval at them, halves every piece and maps each
-half by φ = a ± ε sinh t, Gauss–Legendre in t; sums the facet weights (2.7) and Newton impulses (2.8),
-node loops in SIMD lanes (polynomial exp and sin/cos of :mod:`~mbimpact.averaging.slope_pass_kernels`),
-half-pieces added with compensation; and stops by the adaptive rule's error estimate and stopping rule.
-Its result is the numpy rule's to rounding.
+half by φ = a ± ε sinh t, Gauss–Legendre in t; sums the facet weights (2.7) and Newton impulses (2.8)
+(node loops in SIMD lanes, :mod:`~mbimpact.averaging.graded_sums`; half-pieces added with compensation);
+and stops by the adaptive rule's error estimate and stopping rule. Its result is the numpy rule's to
+rounding.
 
 Imported on first use only (numba costs ~0.3 s to import:
 :data:`mbimpact.averaging.graded_slope_pass.KERNELS`).
@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 
 from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
 from .graded_kernels import rule_table
-from .slope_pass_kernels import cos_sin, exp_neg
+from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
 
 __all__ = ["rule_table", "tilt_nodes", "graded_slope_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
            "STALLED", "CAPPED", "NEED_TABLE"]
@@ -44,9 +44,6 @@ __all__ = ["rule_table", "tilt_nodes", "graded_slope_pass", "jit_seconds", "SETT
 SETTLED, DEGENERATE_FACET, NOT_FACING, STALLED, CAPPED, NEED_TABLE = 0, 1, 2, 4, 5, 6
 
 _EPS = float(np.finfo(float).eps)
-
-# fast-math flags of the node sums (reassociated into SIMD lanes, products fused), as slope_pass_kernels'
-_FAST = {"reassoc", "contract"}
 
 # ring_minima_many's Newton tolerance (_NEWTON_ROUNDING ε of the rounding of q') and iteration cap
 _NEWTON_ROUNDING = 16.0
@@ -58,9 +55,6 @@ _GRID_ANGLES = 2 * math.pi * np.arange(_GRID_N) / _GRID_N
 _GRID = np.ascontiguousarray(np.vstack([np.cos(_GRID_ANGLES), np.sin(_GRID_ANGLES), np.cos(2 * _GRID_ANGLES),
                                         np.sin(2 * _GRID_ANGLES)]))
 _GRID.flags.writeable = False
-
-# rows of graded_kernels.rule_table: x + 1 and w of the Gauss–Legendre nodes of each level in turn
-_GL_NODE_PLUS_ONE, _GL_WEIGHT = range(2)
 
 # Explicit signatures, compiled (or loaded from the cache) on first use: W and U of any layout, read-only; the
 # tilts and the table C-contiguous (strided indexing would keep the node loops out of SIMD lanes)
@@ -128,9 +122,9 @@ def tilt_nodes(lo: float, hi: float, split: float, at: NDArray[np.float64], et: 
     for level in range(count):
         for h in range(10):
             for i in range(col, col + m):
-                t = T[h] * table[_GL_NODE_PLUS_ONE, i] / 2.0
+                t = T[h] * table[NODE_PLUS_ONE, i] / 2.0
                 y = width[h] * math.sinh(t)
-                dy = width[h] * math.cosh(t) * (T[h] / 2.0) * table[_GL_WEIGHT, i]
+                dy = width[h] * math.cosh(t) * (T[h] / 2.0) * table[WEIGHT, i]
                 da = 2.0 * y * dy if square[h] else dy
                 if da > 0.0:
                     tilt[k], dtilt[k] = g[h] + (y * y if square[h] else sign[h] * y), da
@@ -182,51 +176,6 @@ def _minima(q0: float, a1: float, b1: float, a2: float, b2: float, grid: NDArray
         if k == 2:
             break
     return k
-
-
-@njit(cache=True, error_model="numpy")
-def _nodes(start: int, m: int, table: NDArray[np.float64], offset: float, sign: float, width: float, T: float,
-           weight_tilt: float, cs: NDArray[np.float64], sn: NDArray[np.float64], pw: NDArray[np.float64]
-           ) -> None:  # pragma: no cover — compiled
-    """The ``m`` nodes of one half-piece: cos θ, sin θ and the weight p(α) dα · ε cosh t (T/2) w / 2π into
-    ``cs``, ``sn``, ``pw``, θ = offset ± ε sinh t the azimuth from the facing interval's centre
-    (|θ| ≤ π), t = T (x + 1) / 2. Polynomials in place of libm (one exponential gives sinh and cosh), so
-    that the loop runs in SIMD lanes; an ulp or two, as libm."""
-    for j in range(m):
-        i = start + j
-        t = T * table[_GL_NODE_PLUS_ONE, i] / 2.0
-        y = exp_neg(-t)
-        x = 1.0 / y
-        cs[j], sn[j] = cos_sin(offset + sign * width * (0.5 * (x - y)))
-        pw[j] = width * (0.5 * (x + y)) * (T / 2.0) * table[_GL_WEIGHT, i] / (2.0 * math.pi) * weight_tilt
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _sums(m: int, cs: NDArray[np.float64], sn: NDArray[np.float64], pw: NDArray[np.float64], s: float, c: float,
-          ux: float, uz: float, w00: float, w01: float, w11: float, w02: float, w12: float, w22: float, thr: float,
-          configuration: bool) -> tuple[float, float, float, float, int, int]:  # pragma: no cover — compiled
-    """Sums over the ``m`` nodes of a half-piece, in the frame of its facing interval's centre (u = (ux, 0,
-    uz), W = w..): D = Σ w, N = Σ w (−mᵀu / mᵀWm) m with w the flux weight of (2.7); the count of nodes of
-    positive weight (the numpy rule's facets) and of facing facets the mechanism cannot push
-    (mᵀWm ≤ thr). Reassociated (SIMD lanes); each half-piece's sums are added with compensation."""
-    d, n0, n1, n2 = 0.0, 0.0, 0.0, 0.0
-    count, bad = 0, 0
-    for j in range(m):
-        m0, m1, p = s * cs[j], s * sn[j], pw[j]
-        sweep = -(m0 * ux + c * uz)  # −mᵀu > 0 on G*
-        q = m0 * (m0 * w00 + 2.0 * m1 * w01 + 2.0 * c * w02) + m1 * (m1 * w11 + 2.0 * c * w12) + c * c * w22
-        facing = (sweep > 0.0) & (p > 0.0)
-        count += p > 0.0
-        bad += facing & (not q > thr)
-        ok = facing & (q > thr)
-        q = max(q, thr)
-        weight = p * (sweep / math.sqrt(q) if configuration else sweep)
-        wc = weight * (sweep / q)
-        d += weight if ok else 0.0
-        n0 += wc * m0 if ok else 0.0
-        n1 += wc * m1 if ok else 0.0
-        n2 += wc * c if ok else 0.0
-    return d, n0, n1, n2, count, bad
 
 
 @njit(cache=True, error_model="numpy")
@@ -295,9 +244,9 @@ def _level(start: int, m: int, table: NDArray[np.float64], tilt: NDArray[np.floa
         for h in range(6):
             if not T[h] > 0.0:
                 continue  # a zero-length half-piece: weight 0, not one of the numpy rule's facets
-            _nodes(start, m, table, g[h] - centre, sign[h], width[h], T[h], weight_tilt, cs, sn, pw)
-            hd, h0, h1, h2, count, bad = _sums(m, cs, sn, pw, s, c, flip * ut, uz, r00, r01, r11, flip * r02,
-                                               flip * r12, W[2, 2], floor, configuration)
+            half_piece_nodes(start, m, table, g[h] - centre, sign[h], width[h], T[h], weight_tilt, cs, sn, pw)
+            hd, h0, h1, h2, count, bad = half_piece_sums(m, cs, sn, pw, s, c, flip * ut, 0.0, uz, r00, r01, r11,
+                                                         flip * r02, flip * r12, W[2, 2], floor, configuration)
             if bad:
                 return DEGENERATE_FACET, facets  # the numpy rule drops such a facet; leave it to it
             facets += count

@@ -46,8 +46,10 @@ METHODS = ("graded-pass", "cone-pair", "cone-pass")
 
 _IN1, _IN2 = types.Array(types.float64, 1, "A", readonly=True), types.Array(types.float64, 2, "A", readonly=True)
 _F, _I = types.float64, types.int64
+# the node tables C-contiguous: strided indexing would keep the node loops out of SIMD lanes
+_TABLE = types.Array(types.float64, 2, "C", readonly=True)
 _CONE_IMPACT = types.Tuple((_I, _I, _F, _F, _F, _F, types.boolean))(
-    _IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _F, _IN2, _I, _F, _IN2, _I, types.boolean, _F, _F, types.float64[::1])
+    _IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F, types.float64[::1])
 
 
 @njit(_CONE_IMPACT, cache=True, error_model="numpy")
