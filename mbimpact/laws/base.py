@@ -14,7 +14,6 @@ Entry points: :meth:`ImpactLaw.apply` and :meth:`ImpactLaw.apply_batch` on array
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from types import ModuleType
 from typing import TYPE_CHECKING, ClassVar
@@ -28,7 +27,7 @@ from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
 from ..metric.delassus import KERNELS as METRIC_KERNELS
-from ..metric.delassus import ContactMetric, eigen_ratio
+from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
 
@@ -37,15 +36,9 @@ if TYPE_CHECKING:
 
 __all__ = ["ImpactLaw"]
 
-#: det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen)
+#: det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen; the
+#: compiled route then asks its eigenvalues, :data:`mbimpact.metric.delassus.FULL_RANK_RATIO`)
 RANK_FLOOR = 1e-12
-
-
-def full_rank(W: NDArray[np.float64]) -> bool:
-    """Whether :attr:`ContactMetric.range_projector` keeps all of W (every eigenvalue above 1e-12 λ_max,
-    so that it projects on the whole space: P unchanged), with a margin of 10 for the ~ε λ_max error of
-    the closed-form eigenvalues; below it the compiled route leaves W to the general one."""
-    return eigen_ratio(W) > 1e-11
 
 
 class ImpactLaw(ABC):
@@ -183,8 +176,6 @@ class ImpactLaw(ABC):
             A, U, D = mech.factor_arrays(q)
             buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
             status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, RANK_FLOOR, buffer)
-            if status == kernels.NEAR_SINGULAR and full_rank(kernels.world_delassus(buffer, len(v))):
-                status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, -math.inf, buffer)
             if status == kernels.READY:
                 return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
@@ -227,9 +218,6 @@ class ImpactLaw(ABC):
         buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
         status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
                                                         RANK_FLOOR, buffer)
-        if status == kernels.NEAR_SINGULAR and full_rank(metric.W):
-            status, speed, w_scale = kernels.prepare_metric(metric.AinvJt.T, metric.W, metric.J, v, R, DEGENERATE,
-                                                            -math.inf, buffer)
         if status:
             if status == kernels.U_NOT_FINITE:
                 n = len(v)

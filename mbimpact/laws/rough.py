@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import math
 import warnings
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -34,7 +33,7 @@ from ..results.impact import ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
 from ..roughness.base import Roughness
 from ..roughness.cone import Cone
-from .base import RANK_FLOOR, ImpactLaw, full_rank
+from .base import RANK_FLOOR, ImpactLaw
 from .restitution import restitution_from
 
 if TYPE_CHECKING:
@@ -352,16 +351,8 @@ class RoughLaw(ImpactLaw):
             U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan, buffer)
         if status < kernels.DECLINED:
             return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
-        metric = METRIC_KERNELS.get()
-        # W may be rank-deficient by its determinant: go on where its eigenvalues say it is not (as the base does)
-        if (status == kernels.NOT_PREPARED and nodes == metric.NEAR_SINGULAR
-                and full_rank(metric.world_delassus(buffer, len(v)))):
-            status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
-                U, D, J, v, R, DEGENERATE, -math.inf, *plan, buffer)
-            if status < kernels.DECLINED:
-                return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
         if status == kernels.DECLINED:
-            return self._finish_single(metric, A, J, R, buffer, speed, w_scale)
+            return self._finish_single(METRIC_KERNELS.get(), A, J, R, buffer, speed, w_scale)
         return super().apply_mechanism(mech, q, v, J, R)
 
     def _cone_plan(self) -> tuple[Any, ...] | None:

@@ -29,10 +29,15 @@ from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 if TYPE_CHECKING:
     from ..mechanism.mechanism import Mechanism
 
-__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "KERNELS"]
+__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "FULL_RANK_RATIO", "KERNELS"]
 
 #: The compiled core of :meth:`ContactMetric.from_mechanism` (:mod:`mbimpact.metric.kernels`).
 KERNELS = KernelModule("mbimpact.metric.kernels")
+
+#: λ_min / tr W above which the compiled single impact keeps W whole (W − 1e-11 tr(W) I positive definite):
+#: :attr:`ContactMetric.range_projector` keeps every eigenvalue above 1e-12 λ_max ≥ 1e-12 tr W / 3, and is
+#: then the identity; a margin of 10 for rounding. A W below it takes the general route, which projects.
+FULL_RANK_RATIO = 1e-11
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9
@@ -309,8 +314,10 @@ def eigen_ratio(W: NDArray[np.float64]) -> float:
     """λ_min / λ_max of a symmetric positive semidefinite 3 × 3 matrix, in closed form.
 
     Smith's trigonometric solution of the characteristic cubic in floats (a few µs
-    instead of LAPACK's tens); λ_min carries an absolute error of order ε λ_max,
-    enough to tell a well-conditioned W from a nearly singular one.
+    instead of LAPACK's tens); λ_min carries an absolute error of order ε λ_max where
+    the two smaller eigenvalues are apart, up to ~1e-8 λ_max where both are small (a
+    nearly rank-1 W): enough to tell a well-conditioned W from a nearly singular one,
+    not to tell the rank.
     """
     (a, b, c), (_, d, f), (_, _, g) = rows = W.tolist()
     tr = rows[0][0] + rows[1][1] + rows[2][2]

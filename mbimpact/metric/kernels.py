@@ -27,6 +27,8 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from .delassus import FULL_RANK_RATIO
+
 __all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
            "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
            "SPEED_INF", "NEAR_SINGULAR"]
@@ -159,6 +161,23 @@ def delassus(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float
     return Yt.reshape((d, n)), W.reshape((d, d)), finite
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _full_rank(W: NDArray[np.float64], tr: float) -> bool:  # pragma: no cover — compiled
+    """Whether the range projector keeps all of W (9,) (row-major, trace ``tr``): W − τ I positive definite,
+    τ = FULL_RANK_RATIO tr W, by the pivots of its Cholesky factorisation (backward stable: decided to
+    ~ε tr W, where a closed form of the eigenvalues errs by up to ~1e-8 tr W for a nearly rank-1 W)."""
+    tau = FULL_RANK_RATIO * tr
+    d0 = W[0] - tau
+    if not d0 > 0.0:
+        return False
+    l1, l2 = W[1] / d0, W[2] / d0
+    d1 = (W[4] - tau) - l1 * W[1]
+    if not d1 > 0.0:
+        return False
+    m = (W[5] - l2 * W[1]) / d1
+    return (W[8] - tau) - l2 * W[2] - m * (W[5] - l2 * W[1]) > 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def _state(J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64], degenerate: float,
            rank_floor: float, buf: NDArray[np.float64]) -> tuple[int, float, float]:  # pragma: no cover — compiled
@@ -188,7 +207,9 @@ def _state(J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64
         return DECLINED, 0.0, 0.0
     a, b, c, d, e, f, g, h, k = (W[0] / tr, W[1] / tr, W[2] / tr, W[3] / tr, W[4] / tr, W[5] / tr,
                                  W[6] / tr, W[7] / tr, W[8] / tr)
-    if not a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) > rank_floor:
+    # the determinant screens; a Cholesky test of W − τ I decides (a W whose eigenvalues are 1e7 apart, an
+    # arm stretched out, is nearly singular by its determinant but kept whole by the range projector)
+    if not a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) > rank_floor and not _full_rank(W, tr):
         return NEAR_SINGULAR, 0.0, 0.0
     big = max(abs(u0), abs(u1), abs(u2))
     t0, t1, t2 = u0 / big, u1 / big, u2 / big
@@ -246,7 +267,9 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     degenerate : float
         n⁰ᵀWn⁰ ≤ degenerate · tr W means n⁰ is out of reach.
     rank_floor : float
-        det W / (tr W)³ ≤ rank_floor means W is (nearly) rank-deficient.
+        det W / (tr W)³ ≤ rank_floor screens W as nearly rank-deficient; it is, for this route, where
+        λ_min ≤ :data:`~mbimpact.metric.delassus.FULL_RANK_RATIO` tr W too (a Cholesky test of
+        W − τ I). −inf skips the screen.
     buf : ndarray, shape (6n + 33,)
         Filled with v₋, u₋ = J v and n⁰ at their places in the result (:func:`single_size`), and
         with W, W_local (:func:`local_views`), U_local and A⁻¹Jᵀ after it.
@@ -256,8 +279,8 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     status : int
         :data:`READY`; :data:`DECLINED` for what the general route treats or names (A(q) not
         positive definite, W overflowing, no approach, n⁰ out of reach); :data:`U_NOT_FINITE`;
-        :data:`SPEED_INF` (|u| overflows); :data:`NEAR_SINGULAR` (W may be rank-deficient: W, at its
-        place in ``buf``, is filled, the rest of the state is not).
+        :data:`SPEED_INF` (|u| overflows); :data:`NEAR_SINGULAR` (W is rank-deficient, the range projector would
+        change it: W, at its place in ``buf``, is filled, the rest of the state is not).
     speed, w_scale : float
         |u| and tr(Rᵀ W R).
     """

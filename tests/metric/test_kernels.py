@@ -96,3 +96,37 @@ def test_compile_kernels_makes_every_registered_module_ready():
             "mbi.impact(m, q, v, mbi.PointContact('tool0'), mbi.NewtonLaw(0.5)); "
             "assert 'numba' in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+@given(seeds, st.floats(-16.0, 0.0), st.floats(0.0, 1.0), st.sampled_from([0, 1, 2]))
+def test_the_compiled_rank_screen_keeps_w_exactly_where_the_range_projector_keeps_it_whole(seed, log_ratio, mid,
+                                                                                           zeros):
+    """prepare_factor screens W by its determinant, then by a Cholesky test of W − τ I: it declines (NEAR_SINGULAR,
+    the general route then projects on range W) exactly where det W / (tr W)³ ≤ 1e-12 and
+    λ_min ≤ FULL_RANK_RATIO tr W (LAPACK's λ_min); where it goes on, the general route's range projector keeps W whole
+    (None or the identity). W = Q diag(λ) Qᵀ with λ_min / λ_max over 16 decades, λ_mid anywhere between
+    (two small eigenvalues: a nearly rank-1 W, where the closed-form eigen_ratio errs by ~1e-8), or exact
+    zeros (a rank-deficient contact); A = I and J = W^½, so that W is the contact's Delassus matrix."""
+    from mbimpact.metric.delassus import FULL_RANK_RATIO
+
+    rng = np.random.default_rng(seed)
+    Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    lam = np.array([1.0, 10.0 ** (mid * log_ratio), 10.0**log_ratio])
+    lam[3 - zeros:] = 0.0
+    root = (Q * np.sqrt(lam)) @ Q.T
+    v = np.linalg.lstsq(root, [0.3, 0.1, -1.0], rcond=None)[0]
+    kernels = KERNELS.get()
+    buffer = np.empty(6 * 3 + 33)
+    status = kernels.prepare_factor(np.eye(3), np.ones(3), root, v, np.eye(3), 1e-14, 1e-12, buffer)[0]
+    if status == kernels.DECLINED:  # no approach, or n⁰ out of reach: not the screen's business
+        return
+    W = kernels.world_delassus(buffer, 3).copy()
+    tr = np.trace(W)
+    screened = np.linalg.det(W / tr) <= 1e-12
+    ratio = np.linalg.eigvalsh(W)[0] / tr
+    if abs(np.linalg.det(W / tr) - 1e-12) > 1e-14 and abs(ratio / FULL_RANK_RATIO - 1.0) > 1e-3:  # off the edges
+        assert (status == kernels.NEAR_SINGULAR) == (screened and ratio <= FULL_RANK_RATIO)
+    if status != kernels.NEAR_SINGULAR:
+        assert status == kernels.READY
+        projector = ContactMetric.from_arrays(np.eye(3), root).range_projector
+        assert projector is None or np.allclose(projector, np.eye(3), rtol=0, atol=1e-12)
