@@ -202,8 +202,7 @@ class ImpactLaw(ABC):
             law=self, error_estimate=err, nodes=nodes, method=method,
         )
         if not result.separates:
-            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
-                 f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
+            self._warn_no_separation()
         return result
 
     def _compiled_single(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]
@@ -248,12 +247,15 @@ class ImpactLaw(ABC):
         if not finite:
             check_in_range("the impact's outcome (P, v₊ or u₊)", result.P, result.v_plus, result.u_plus)
         if not un_plus >= -SEPARATION_RTOL * speed:
-            o = 3 * J.shape[1]  # result.kappa from the buffer (u₋ at o + 3, n⁰ at o + 9): no views made
-            kappa = -un_plus / (buffer[o + 3] * buffer[o + 9] + buffer[o + 4] * buffer[o + 10]
-                                + buffer[o + 5] * buffer[o + 11])
-            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
-                 f"(kappa = {kappa:.6g} < 0); {self.separation_advice()}")
+            self._warn_no_separation()
         return result
+
+    def _warn_no_separation(self) -> None:
+        """The :class:`NoSeparationWarning` of an impact whose contact still approaches (κ < 0). Its text
+        is the same for every impact of this law (κ is on the result): Python's default filter then
+        shows it once per line of the caller, not once per impact of a loop."""
+        warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
+             f"(kappa < 0, the result's kappa says by how much); {self.separation_advice()}")
 
     def separation_advice(self) -> str:
         """What a :class:`NoSeparationWarning` of this law tells the user to do about a contact that

@@ -73,7 +73,7 @@ from numpy.typing import NDArray
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
 from ..common.validation import as_scalar, check_in_range, quiet_overflow
-from ..errors import IntegrationError, NoSeparationWarning, ParameterError, warn
+from ..errors import IntegrationError, ParameterError
 from ..metric.delassus import ContactMetric
 from ..results.impact import ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
@@ -295,8 +295,7 @@ class CoulombLaw(ImpactLaw):
         else:
             un_plus = rl[0][1] * up[0] + rl[1][1] * up[1]
         if un_plus < -SEPARATION_RTOL * speed:
-            warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
-                 f"(kappa = {result.kappa:.6g} < 0); {self.separation_advice()}")
+            self._warn_no_separation()
         return result
 
     # ------------------------------------------------------------------ one impact

@@ -29,6 +29,29 @@ def test_steep_facets_at_normal_incidence_do_not_separate_and_say_so():
         assert mbi.RoughLaw(mbi.Cone(0.3), e).apply(I3, I3, [0.0, 0.0, -1.0], N0).separates
 
 
+def test_a_loop_of_impacts_that_do_not_separate_warns_once_per_line():
+    """Python's default filter shows a warning once per line of the caller for each text: the text does
+    not carry κ (each impact's own value is on its result), so a loop of impacts warns once, whichever
+    route runs them (compiled on a mechanism, the general route from arrays)."""
+    mech = mbi.Mechanism.from_robot("solo12")
+    q = mech.neutral()
+    q[2] = 0.336  # a foot on the ground: oblique impacts on its anisotropic W keep approaching
+    contact = mbi.PointContact("FL_FOOT")
+    steep = mbi.RoughLaw(mbi.Cone(1.2), 0.1)
+    for run in (lambda v: mbi.impact(mech, q, v, contact, mbi.RoughLaw(mbi.Cone(0.3), 0.5)),
+                lambda v: steep.apply(I3, I3, [v[0], 0.0, -1.0], N0)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            kappas = set()
+            for vx in np.linspace(0.1, 0.5, 5):
+                v = np.zeros(mech.nv)
+                v[[0, 2]] = vx, -1.0
+                kappas.add(round(run(v).kappa, 12))
+        assert len(kappas) == 5 and max(kappas) < 0.0  # five impacts, five outcomes, none separates
+        assert len(caught) == 1 and caught[0].category is mbi.NoSeparationWarning
+        assert "kappa < 0" in str(caught[0].message)
+
+
 def test_the_warning_advises_what_the_law_can_do():
     """Only a rough law has ``repeat``: it is advised where it was off; where the repetition ran out of
     budget the warning says so instead; other laws point to the rough law."""

@@ -101,12 +101,13 @@ def test_compile_kernels_makes_every_registered_module_ready():
 @given(seeds, st.floats(-16.0, 0.0), st.floats(0.0, 1.0), st.sampled_from([0, 1, 2]))
 def test_the_compiled_rank_screen_keeps_w_exactly_where_the_range_projector_keeps_it_whole(seed, log_ratio, mid,
                                                                                            zeros):
-    """prepare_factor screens W by its determinant, then by a Cholesky test of W − τ I: it declines (NEAR_SINGULAR,
-    the general route then projects on range W) exactly where det W / (tr W)³ ≤ 1e-12 and
-    λ_min ≤ FULL_RANK_RATIO tr W (LAPACK's λ_min); where it goes on, the general route's range projector keeps W whole
-    (None or the identity). W = Q diag(λ) Qᵀ with λ_min / λ_max over 16 decades, λ_mid anywhere between
-    (two small eigenvalues: a nearly rank-1 W, where the closed-form eigen_ratio errs by ~1e-8), or exact
-    zeros (a rank-deficient contact); A = I and J = W^½, so that W is the contact's Delassus matrix."""
+    """prepare_factor screens W by its determinant, then by a Cholesky test of W − τ I: it declines
+    (NEAR_SINGULAR, the general route then projects on range W) exactly where det W / (tr W)³ ≤ 1e-12 and
+    λ_min ≤ FULL_RANK_RATIO tr W (LAPACK's λ_min); where it goes on, the general route's range projector
+    keeps W whole (None or the identity). W = Q diag(λ) Qᵀ with λ_min / λ_max over 16 decades, λ_mid
+    anywhere between (two small eigenvalues: a nearly rank-1 W, where the closed-form eigen_ratio errs by
+    ~1e-8), or exact zeros (a rank-deficient contact); A = I and J = W^½, so that W is the contact's
+    Delassus matrix."""
     from mbimpact.metric.delassus import FULL_RANK_RATIO
 
     rng = np.random.default_rng(seed)
