@@ -61,7 +61,6 @@ _GRID = np.ascontiguousarray(np.vstack([
 _GRID.flags.writeable = False
 
 
-
 @functools.lru_cache(maxsize=32)
 def rule_table(n: int, levels: int) -> NDArray[np.float64]:
     """Gauss–Legendre nodes of the levels n, 2n, …, 2^(levels−1) n nodes a piece (cached, read-only).

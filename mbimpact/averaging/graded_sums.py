@@ -5,8 +5,8 @@
 The graded rule of :func:`mbimpact.quadrature.graded.graded_azimuth_rule` cuts the facing interval
 of a ring at the minima of q = mᵀWm, halves every piece and maps each half onto its graded end a by
 φ = a ± ε sinh t, Gauss–Legendre in t. A half-piece's m nodes are computed by
-:func:`half_piece_nodes` (cos θ, sin θ and the weight, θ measured from the facing interval's centre)
-and summed by :func:`half_piece_sums` (the integrands of (2.8) with the flux weights of (2.7)). Both
+:func:`half_piece_nodes` (cos θ, sin θ and the weight, θ the azimuth in the caller's frame: W's own for
+a cone, the facing interval's centre for a ring of a tilt density) and summed by :func:`half_piece_sums` (the integrands of (2.8) with the flux weights of (2.7)). Both
 loops run in SIMD lanes: polynomials in place of libm
 (:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`,
 :func:`~mbimpact.averaging.slope_pass_kernels.exp_neg`), no calls, no early exits, and the sums

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 __all__ = ["ImpactLaw"]
 
 #: det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen; the
-#: compiled route then asks its eigenvalues, :data:`mbimpact.metric.delassus.FULL_RANK_RATIO`)
+#: compiled route keeps W where λ_min > :data:`mbimpact.metric.kernels.FULL_RANK_RATIO` tr W)
 RANK_FLOOR = 1e-12
 
 

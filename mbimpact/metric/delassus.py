@@ -29,15 +29,10 @@ from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 if TYPE_CHECKING:
     from ..mechanism.mechanism import Mechanism
 
-__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "FULL_RANK_RATIO", "KERNELS"]
+__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "KERNELS"]
 
 #: The compiled core of :meth:`ContactMetric.from_mechanism` (:mod:`mbimpact.metric.kernels`).
 KERNELS = KernelModule("mbimpact.metric.kernels")
-
-#: λ_min / tr W above which the compiled single impact keeps W whole (W − 1e-11 tr(W) I positive definite):
-#: :attr:`ContactMetric.range_projector` keeps every eigenvalue above 1e-12 λ_max ≥ 1e-12 tr W / 3, and is
-#: then the identity; a margin of 10 for rounding. A W below it takes the general route, which projects.
-FULL_RANK_RATIO = 1e-11
 
 # Relative asymmetry of A tolerated before it is called non-symmetric.
 _SYMMETRY_RTOL = 1e-9

@@ -27,17 +27,22 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from .delassus import FULL_RANK_RATIO
-
 __all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
            "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
-           "SPEED_INF", "NEAR_SINGULAR"]
+           "SPEED_INF", "NEAR_SINGULAR", "FULL_RANK_RATIO"]
 
 #: Status codes of :func:`prepare_factor` and :func:`prepare_metric`: the law may run; the general
 #: route treats or names the case (no approach, n⁰ out of reach, an overflowing W, a singular A); J v
-#: is not finite; |u| overflows; W may be rank-deficient (det W / (tr W)³ ≤ rank_floor: the caller
-#: decides, from W's eigenvalues, whether to go on with ``rank_floor = -inf``).
+#: is not finite; |u| overflows; W is nearly rank-deficient (det W / (tr W)³ ≤ rank_floor, and
+#: λ_min ≤ :data:`FULL_RANK_RATIO` tr W): the general route, whose range projector may cut it, takes it.
 READY, DECLINED, U_NOT_FINITE, SPEED_INF, NEAR_SINGULAR = 0, 1, 2, 3, 4
+
+#: λ_min / tr W above which a W that the determinant screens is kept whole (W − FULL_RANK_RATIO tr(W) I
+#: positive definite): then λ_min > 1e-11 tr W ≥ 1e-11 λ_max, above the 1e-12 λ_max below which
+#: :attr:`mbimpact.metric.ContactMetric.range_projector` cuts an eigenvalue, by a margin of 10 for
+#: rounding. (Defined here, not imported: numba freezes it into this module's cached machine code, which
+#: is rebuilt when this file changes.)
+FULL_RANK_RATIO = 1e-11
 
 # Explicit signatures, compiled (or loaded from the cache) on import: read-only arrays of any layout, so
 # that one machine code serves every caller (a frozen metric's J, Pinocchio's column-major U, a user's
@@ -268,8 +273,7 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
         n⁰ᵀWn⁰ ≤ degenerate · tr W means n⁰ is out of reach.
     rank_floor : float
         det W / (tr W)³ ≤ rank_floor screens W as nearly rank-deficient; it is, for this route, where
-        λ_min ≤ :data:`~mbimpact.metric.delassus.FULL_RANK_RATIO` tr W too (a Cholesky test of
-        W − τ I). −inf skips the screen.
+        λ_min ≤ :data:`FULL_RANK_RATIO` tr W too (a Cholesky test of W − τ I). −inf skips the screen.
     buf : ndarray, shape (6n + 33,)
         Filled with v₋, u₋ = J v and n⁰ at their places in the result (:func:`single_size`), and
         with W, W_local (:func:`local_views`), U_local and A⁻¹Jᵀ after it.
@@ -279,8 +283,9 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     status : int
         :data:`READY`; :data:`DECLINED` for what the general route treats or names (A(q) not
         positive definite, W overflowing, no approach, n⁰ out of reach); :data:`U_NOT_FINITE`;
-        :data:`SPEED_INF` (|u| overflows); :data:`NEAR_SINGULAR` (W is rank-deficient, the range projector would
-        change it: W, at its place in ``buf``, is filled, the rest of the state is not).
+        :data:`SPEED_INF` (|u| overflows); :data:`NEAR_SINGULAR` (W is nearly rank-deficient: the range projector
+        of the general route may cut it; W, at its place in ``buf``, is filled, the rest of the state is
+        not).
     speed, w_scale : float
         |u| and tr(Rᵀ W R).
     """

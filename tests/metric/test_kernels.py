@@ -108,8 +108,6 @@ def test_the_compiled_rank_screen_keeps_w_exactly_where_the_range_projector_keep
     anywhere between (two small eigenvalues: a nearly rank-1 W, where the closed-form eigen_ratio errs by
     ~1e-8), or exact zeros (a rank-deficient contact); A = I and J = W^½, so that W is the contact's
     Delassus matrix."""
-    from mbimpact.metric.delassus import FULL_RANK_RATIO
-
     rng = np.random.default_rng(seed)
     Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     lam = np.array([1.0, 10.0 ** (mid * log_ratio), 10.0**log_ratio])
@@ -125,8 +123,8 @@ def test_the_compiled_rank_screen_keeps_w_exactly_where_the_range_projector_keep
     tr = np.trace(W)
     screened = np.linalg.det(W / tr) <= 1e-12
     ratio = np.linalg.eigvalsh(W)[0] / tr
-    if abs(np.linalg.det(W / tr) - 1e-12) > 1e-14 and abs(ratio / FULL_RANK_RATIO - 1.0) > 1e-3:  # off the edges
-        assert (status == kernels.NEAR_SINGULAR) == (screened and ratio <= FULL_RANK_RATIO)
+    if abs(np.linalg.det(W / tr) - 1e-12) > 1e-14 and abs(ratio / kernels.FULL_RANK_RATIO - 1.0) > 1e-3:  # off the edges
+        assert (status == kernels.NEAR_SINGULAR) == (screened and ratio <= kernels.FULL_RANK_RATIO)
     if status != kernels.NEAR_SINGULAR:
         assert status == kernels.READY
         projector = ContactMetric.from_arrays(np.eye(3), root).range_projector
