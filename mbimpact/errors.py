@@ -125,6 +125,8 @@ class NoSeparationWarning(ImpactWarning):
     moves into the base surface afterwards means further micro-impacts follow
     (steep facets at normal incidence, or an oblique impact on an anisotropic W);
     ``RoughLaw(..., repeat=True)`` applies the law again until the contact separates.
+    Its text is the same for every impact of a law (κ itself is on the result), so that
+    Python's default filter shows it once per line of a loop of impacts.
     """
 
 
