@@ -160,10 +160,11 @@ def level_decision(coarse: NDArray[np.float64], fine: NDArray[np.float64], W: ND
 def _block_sums(ct: NDArray[np.float64], st: NDArray[np.float64], wt: NDArray[np.float64], lo: int, hi: int,
                 s: float, c: float, ut: float, uz: float, harmonics: tuple[float, float, float, float, float],
                 floor: float, configuration: bool) -> tuple[float, float, float, float, int]:  # pragma: no cover
-    """Sums over the nodes ``lo`` … ``hi`` of a level (cos θ, sin θ and weight in ``ct``, ``st``, ``wt``):
-    D = Σ w(−mᵀu)… and the kernels Σ w (mᵀu)² g / q for g = 1, cos θ, sin θ (the flux weights of
-    (2.7)), and the count of nodes the mechanism cannot push (q ≤ ``floor``), left out. No calls,
-    no early exit, reassociated: the loop runs in SIMD lanes; the blocks are added with compensation."""
+    """Sums over the nodes ``lo`` … ``hi`` of a level (cos θ, sin θ and quadrature weight in ``ct``,
+    ``st``, ``wt``): D = Σ wt f and the kernels Σ wt f (−mᵀu / q) g for g = 1, cos θ, sin θ, with f the
+    flux weight of (2.7) (−mᵀu, or −mᵀu / √q for the configuration flux), q = mᵀWm, and −mᵀu / q the
+    facet's Newton impulse; and the count of nodes the mechanism cannot push (q ≤ ``floor``), left out. No calls, no early exit, reassociated: the loop
+    runs in SIMD lanes; the blocks are added with compensation."""
     q0, a1, b1, a2, b2 = harmonics
     d, k0, k1, k2 = 0.0, 0.0, 0.0, 0.0
     bad = 0
