@@ -179,8 +179,8 @@ def _full_rank(W: NDArray[np.float64], tr: float) -> bool:  # pragma: no cover â
     d1 = (W[4] - tau) - l1 * W[1]
     if not d1 > 0.0:
         return False
-    m = (W[5] - l2 * W[1]) / d1
-    return (W[8] - tau) - l2 * W[2] - m * (W[5] - l2 * W[1]) > 0.0
+    r = W[5] - l2 * W[1]
+    return (W[8] - tau) - l2 * W[2] - (r / d1) * r > 0.0
 
 
 @njit(cache=True, error_model="numpy")
