@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from types import ModuleType
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Callable, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -324,6 +324,29 @@ class ImpactLaw(ABC):
             Contact frames, last columns n⁰.
         """
         return None
+
+    def factored_stack(self) -> bool:
+        """Whether :func:`mbimpact.impact_batch` hands this law's rows to :meth:`apply_factored_stack`
+        (with Pinocchio's factor of each A(q)) rather than to :meth:`apply_stack`. False here."""
+        return False
+
+    def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
+                             J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
+                             row: Callable[[int], ImpactResult]) -> BatchResult:
+        """Impacts at many configurations from Pinocchio's factors of A(q), for a law whose
+        :meth:`factored_stack` is True: each row as :func:`mbimpact.impact` would compute it.
+
+        Parameters
+        ----------
+        A, J, V, R : ndarray, shapes (B, n, n), (B, 3, n), (B, n), (B, 3, 3)
+            As for :meth:`apply_stack`.
+        U, D : ndarray, shapes (B, n, n), (B, n)
+            Each row's factor A = U D Uᵀ (:meth:`mbimpact.Mechanism.factor_arrays`).
+        row : callable
+            ``row(i)`` is row i's :class:`ImpactResult` by :func:`mbimpact.impact`: for the rows the
+            law's own route declines (it names their errors and treats their degenerate cases).
+        """
+        raise NotImplementedError(f"{type(self).__name__} has no route for factored stacks (factored_stack() is False)")
 
     # ------------------------------------------------------------------ batch
     def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:

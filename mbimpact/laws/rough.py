@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import warnings
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +29,7 @@ from ..facets.base import FacetLaw, method_label
 from ..facets.newton import NewtonFacet
 from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
-from ..results.impact import ContactImpulses, ImpactResult
+from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
 from ..roughness.base import Roughness
 from ..roughness.cone import Cone
@@ -354,6 +354,48 @@ class RoughLaw(ImpactLaw):
         if status == kernels.DECLINED:
             return self._finish_single(METRIC_KERNELS.get(), A, J, R, buffer, speed, w_scale)
         return super().apply_mechanism(mech, q, v, J, R)
+
+    def factored_stack(self) -> bool:
+        """True where a single impact runs whole in one compiled call (a :class:`~mbimpact.Cone` by
+        ``"auto"``, :meth:`apply_mechanism`): :func:`mbimpact.impact_batch` then makes that call once
+        for all rows (:meth:`apply_factored_stack`)."""
+        return self._cone_plan() is not None
+
+    def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
+                             J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
+                             row: Callable[[int], ImpactResult]) -> BatchResult:
+        """:meth:`ImpactLaw.apply_factored_stack`: :func:`mbimpact.laws.rough_kernels.cone_batch`, the
+        compiled single impact of :meth:`apply_mechanism` once for all rows; each row's result is that of
+        :func:`mbimpact.impact` to the bit. The rows it leaves (what the compiled methods do not settle,
+        what the metric does not prepare, an outcome beyond the float range) are ``row(i)``, which names
+        or treats them. One :class:`~mbimpact.NoSeparationWarning` for the compiled rows whose contact
+        still approaches (``row`` warns for its own)."""
+        plan = self._cone_plan()
+        if plan is None:
+            raise ParameterError(f"{self!r}: no compiled route for batches across configurations (factored_stack() "
+                                 "is False: a Cone by method='auto' with Newton facets has one); "
+                                 "mbimpact.impact_batch applies this law row by row")
+        kernels = KERNELS.get()
+        B, n = V.shape
+        buffer = np.empty((B, 6 * n + 33))  # each row's single-impact buffer (mbimpact.metric.kernels.single_size)
+        status, nodes, stats = np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+        kernels.cone_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, *plan, buffer, status, nodes, stats)
+        settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
+        methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
+        error = stats[:, 0].copy()
+        for i in np.flatnonzero(~settled).tolist():
+            result = row(i)
+            buffer[i, :3 * n + 12] = np.concatenate([result.v_minus, result.v_plus, result.dv, result.P,
+                                                     result.u_minus, result.u_plus, result.n0])
+            error[i], nodes[i] = result.error_estimate, result.nodes
+            methods.add(result.method)
+        # as _single_result: a contact that still approaches after the impact (κ < 0)
+        if np.any(settled & ~(stats[:, 3] >= -SEPARATION_RTOL * stats[:, 1])):
+            self._warn_no_separation()
+        v_minus, v_plus, dv, P, u_minus, u_plus, n0 = np.split(buffer[:, :3 * n + 12], np.cumsum([n, n, n, 3, 3, 3]),
+                                                               axis=1)  # the single result's layout
+        return BatchResult(V_minus=v_minus, V_plus=v_plus, dV=dv, P=P, U_minus=u_minus, U_plus=u_plus, n0=n0, A=A, J=J,
+                           law=self, error_estimate=error, nodes=int(nodes.max()), method="+".join(sorted(methods)))
 
     def _cone_plan(self) -> tuple[Any, ...] | None:
         """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded

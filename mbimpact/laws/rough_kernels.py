@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from ..averaging import cone_kernels, graded_kernels
 from ..metric.kernels import READY, finish_into, prepare_into, single_size
 
-__all__ = ["cone_impact", "jit_seconds", "GRADED_PASS", "CONE_PAIR", "CONE_PASS", "DECLINED", "NOT_PREPARED"]
+__all__ = ["cone_impact", "cone_batch", "jit_seconds", "GRADED_PASS", "CONE_PAIR", "CONE_PASS", "DECLINED", "NOT_PREPARED"]
 
 #: Status codes of :func:`cone_impact`: settled by the method of that name (its index in
 #: :data:`METHODS`); prepared but not settled by these methods; not prepared (the metric's status says why).
@@ -50,6 +50,43 @@ _F, _I = types.float64, types.int64
 _TABLE = types.Array(types.float64, 2, "C", readonly=True)
 _CONE_IMPACT = types.Tuple((_I, _I, _F, _F, _F, _F, types.boolean))(
     _IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F, types.float64[::1])
+# the stacks of impact_batch: made by it, C-contiguous
+_S2, _S3 = types.float64[:, ::1], types.float64[:, :, ::1]
+_CONE_BATCH = types.none(_S3, _S2, _S3, _S2, _S3, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F, _S2,
+                         types.int64[::1], types.int64[::1], _S2)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _cone_impact_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
+                      R: NDArray[np.float64], degenerate: float, rank_floor: float, alpha: float,
+                      graded_table: NDArray[np.float64], graded_levels: int, peaked: float,
+                      cone_table: NDArray[np.float64], cone_levels: int, configuration: bool, e: float, rtol: float,
+                      buf: NDArray[np.float64]) -> tuple[int, int, float, float, float, float, bool]:  # pragma: no cover
+    """:func:`cone_impact` without its explicit signature: compiled into it and into :func:`cone_batch`
+    for their own array types."""
+    prepared, speed, w_scale = prepare_into(U, D, J, v, R, degenerate, rank_floor, buf)
+    if prepared != READY:
+        return NOT_PREPARED, prepared, 0.0, speed, w_scale, 0.0, True
+    w = 3 * v.shape[0] + 21  # W_local, then U_local (mbimpact.metric.kernels.local_views)
+    W_local, U_local = buf[w:w + 9].reshape((3, 3)), buf[w + 9:w + 12].reshape((1, 3))
+    P, error = np.empty((1, 3)), np.empty(1)
+    status, nodes = graded_kernels.graded_levels(alpha, W_local, U_local, graded_table, graded_levels, peaked,
+                                                 configuration, e, rtol, degenerate, P, error)
+    if status == graded_kernels.SETTLED:
+        code = GRADED_PASS
+    elif status != graded_kernels.NOT_PEAKED:  # "graded" (numpy) takes over
+        return DECLINED, nodes, 0.0, speed, w_scale, 0.0, True
+    else:
+        status, nodes = cone_kernels.adaptive_levels(alpha, W_local, U_local, cone_table, cone_levels, True,
+                                                     configuration, e, rtol, degenerate, P, error)
+        n = cone_table.shape[1] // ((1 << cone_levels) - 1)
+        # at 2n nodes "cone-pair" (no stall test) and "cone-pass" decide alike: the stall test cannot
+        # fire at the first comparison, which has no earlier difference to compare with
+        if status != cone_kernels.SETTLED:
+            return DECLINED, nodes, 0.0, speed, w_scale, 0.0, True
+        code = CONE_PAIR if nodes == 2 * n else CONE_PASS
+    finite, un_plus = finish_into(P, R, speed / w_scale, buf)
+    return code, nodes, error[0], speed, w_scale, un_plus, finite
 
 
 @njit(_CONE_IMPACT, cache=True, error_model="numpy")
@@ -96,29 +133,42 @@ def cone_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.fl
     finite : bool
         Whether P, v₊ and u₊ are finite (as :func:`mbimpact.metric.kernels.finish` says).
     """
-    prepared, speed, w_scale = prepare_into(U, D, J, v, R, degenerate, rank_floor, buf)
-    if prepared != READY:
-        return NOT_PREPARED, prepared, 0.0, speed, w_scale, 0.0, True
-    w = 3 * v.shape[0] + 21  # W_local, then U_local (mbimpact.metric.kernels.local_views)
-    W_local, U_local = buf[w:w + 9].reshape((3, 3)), buf[w + 9:w + 12].reshape((1, 3))
-    P, error = np.empty((1, 3)), np.empty(1)
-    status, nodes = graded_kernels.graded_levels(alpha, W_local, U_local, graded_table, graded_levels, peaked,
-                                                 configuration, e, rtol, degenerate, P, error)
-    if status == graded_kernels.SETTLED:
-        code = GRADED_PASS
-    elif status != graded_kernels.NOT_PEAKED:  # "graded" (numpy) takes over
-        return DECLINED, nodes, 0.0, speed, w_scale, 0.0, True
-    else:
-        status, nodes = cone_kernels.adaptive_levels(alpha, W_local, U_local, cone_table, cone_levels, True,
-                                                     configuration, e, rtol, degenerate, P, error)
-        n = cone_table.shape[1] // ((1 << cone_levels) - 1)
-        # at 2n nodes "cone-pair" (no stall test) and "cone-pass" decide alike: the stall test cannot
-        # fire at the first comparison, which has no earlier difference to compare with
-        if status != cone_kernels.SETTLED:
-            return DECLINED, nodes, 0.0, speed, w_scale, 0.0, True
-        code = CONE_PAIR if nodes == 2 * n else CONE_PASS
-    finite, un_plus = finish_into(P, R, speed / w_scale, buf)
-    return code, nodes, error[0], speed, w_scale, un_plus, finite
+    return _cone_impact_into(U, D, J, v, R, degenerate, rank_floor, alpha, graded_table, graded_levels, peaked,
+                             cone_table, cone_levels, configuration, e, rtol, buf)
+
+
+@njit(_CONE_BATCH, cache=True, error_model="numpy")
+def cone_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
+               R: NDArray[np.float64], degenerate: float, rank_floor: float, alpha: float,
+               graded_table: NDArray[np.float64], graded_levels: int, peaked: float, cone_table: NDArray[np.float64],
+               cone_levels: int, configuration: bool, e: float, rtol: float, buf: NDArray[np.float64],
+               status: NDArray[np.int64], nodes: NDArray[np.int64], stats: NDArray[np.float64]
+               ) -> None:  # pragma: no cover — compiled
+    """:func:`cone_impact` for B impacts, each at its own configuration: row i is the call on
+    ``U[i], D[i], J[i], V[i], R[i]`` and ``buf[i]``, the same arithmetic, so the same result to the bit.
+
+    Parameters
+    ----------
+    U, D, J, V, R : ndarray, shapes (B, n, n), (B, n), (B, 3, n), (B, n), (B, 3, 3)
+        Each row's factor of A(q), contact Jacobian, velocity and contact frame.
+    degenerate, rank_floor, alpha, graded_table, graded_levels, peaked, cone_table, cone_levels,
+    configuration, e, rtol
+        As for :func:`cone_impact`, shared by the rows.
+    buf : ndarray, shape (B, 6n + 33)
+        Each row's buffer, as :func:`cone_impact` fills it.
+    status, nodes : ndarray, shape (B,)
+        Output: :func:`cone_impact`'s status and node count of each row.
+    stats : ndarray, shape (B, 5)
+        Output: its error estimate, speed, w_scale and n⁰ · u₊, then 1.0 where P, v₊ and u₊ are finite
+        (else 0.0).
+    """
+    for i in range(V.shape[0]):
+        code, count, error, speed, w_scale, un_plus, finite = _cone_impact_into(
+            U[i], D[i], J[i], V[i], R[i], degenerate, rank_floor, alpha, graded_table, graded_levels, peaked,
+            cone_table, cone_levels, configuration, e, rtol, buf[i])
+        status[i], nodes[i] = code, count
+        stats[i, 0], stats[i, 1], stats[i, 2], stats[i, 3] = error, speed, w_scale, un_plus
+        stats[i, 4] = 1.0 if finite else 0.0
 
 
 def jit_seconds() -> float:

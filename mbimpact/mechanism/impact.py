@@ -102,8 +102,11 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
     -----
     Pinocchio's work (J, R and A per row) runs in one lean loop; a law with a closed
     form (:meth:`ImpactLaw.apply_stack`: Newton's) then treats all rows at once with
-    batched LAPACK. The other laws, and batches with a degenerate row, are applied row
-    by row as :func:`impact` does (the same errors, naming the first bad row).
+    batched LAPACK, and a law whose single impact is one compiled call on Pinocchio's factor of
+    A(q) (:meth:`ImpactLaw.apply_factored_stack`: a :class:`RoughLaw` on a :class:`Cone`) makes
+    that call once for all rows, the same result as :func:`impact` row by row, to the bit. The other
+    laws, and batches with a degenerate row, are applied row by row as :func:`impact` does (the
+    same errors and warnings, raised at the first bad row).
     """
     _check_parts(mech, contact, law)
     Q = as_array("Q", Q, 2, (None, mech.nq))
@@ -122,7 +125,8 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
              ) -> BatchResult | None:
     """The vectorised route of :func:`impact_batch`, or None (the law has none, or a row needs the
     row-by-row route)."""
-    if type(law).apply_stack is ImpactLaw.apply_stack:
+    factored = law.factored_stack()
+    if not factored and type(law).apply_stack is ImpactLaw.apply_stack:
         return None
     d = law.dim or 3
     J0, R0 = contact.jacobian(mech, mech.check_configuration(Q[0]), d)
@@ -132,6 +136,14 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
     A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
     model, data, unit = mech.model, mech.workspace().data, mech.nq != mech.nv
+    if factored:  # Pinocchio's factor of every A(q), what the single impacts' kernels read
+        U, D = np.empty((B, n, n)), np.empty((B, n))
+        for i, q in enumerate(Q):
+            if unit:
+                mech.check_configuration(q)
+            J[i], R[i] = contact.jacobian(mech, q, d)
+            A[i], U[i], D[i] = mech.factor_arrays(q)
+        return law.apply_factored_stack(A, U, D, J, V, R, lambda i: impact(mech, Q[i], V[i], contact, law))
     for i, q in enumerate(Q):
         if unit:
             mech.check_configuration(q)

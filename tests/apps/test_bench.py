@@ -75,7 +75,10 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     conf = {r["method"]: r for r in rows if r["part"] == "configurations"}
     assert set(conf) == {"loop of Jacobian + pin.impulseDynamics", "impact_batch, NewtonLaw",
                          "impact_batch, RoughLaw(Cone)"}
-    assert 0.0 < float(conf["impact_batch, NewtonLaw"]["ratio"]) < float(conf["impact_batch, RoughLaw(Cone)"]["ratio"])
+    # both batches have their goal (≥ 1e5 impacts/s); the cone's is the single impact's compiled call, once
+    # for all rows, so the two cost about the same (their order is up to this shared machine's noise)
+    assert all(float(conf[f"impact_batch, {law}"]["ratio"]) > 0.0 for law in ("NewtonLaw", "RoughLaw(Cone)"))
+    assert "2000 configurations: impact_batch, RoughLaw(Cone) |" in text
     # batches in fresh interpreters under both BLAS settings (the thread limit itself: tests/common/test_threads.py)
     thr = {(r["case"], r["method"]): float(r["ratio"]) for r in rows if r["part"] == "threads"}
     assert set(thr) == {(f"ur5, BLAS threads{s}", f"apply_batch, {law}") for s in (" = 1", ": default")

@@ -1,5 +1,7 @@
 """Batch evaluation equals one-by-one evaluation."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -75,6 +77,117 @@ def test_newton_impact_batch_over_configurations_is_the_vectorised_closed_form(r
         np.testing.assert_allclose(batch.A[i], one.A, rtol=0, atol=0)
         assert batch[i].kappa == pytest.approx(0.7, rel=1e-10)  # Newton's restitution, row by row
     assert np.all(batch.energy_loss >= 0.0)
+
+
+_SINGLE_FIELDS = (("V_minus", "v_minus"), ("V_plus", "v_plus"), ("dV", "dv"), ("P", "P"), ("U_minus", "u_minus"),
+                  ("U_plus", "u_plus"), ("n0", "n0"), ("A", "A"), ("J", "J"), ("error_estimate", "error_estimate"))
+
+
+def _approaching_rows(mech, Q, contact, rng):
+    """Random velocities, each turned to approach the plane z = const at its configuration."""
+    V = rng.normal(size=(len(Q), mech.nv))
+    for i, q in enumerate(Q):
+        jz = contact.jacobian(mech, q)[0][2]
+        if jz @ V[i] >= 0.0:
+            V[i] -= (1.0 + jz @ V[i]) * jz / float(jz @ jz)
+    return V
+
+
+def _assert_rows_are_single_impacts(batch, singles):
+    """Every field of every row is the single impact's, to the bit; nodes and methods as BatchResult.stack."""
+    for many, one in _SINGLE_FIELDS:
+        assert np.array_equal(getattr(batch, many), np.stack([getattr(r, one) for r in singles])), many
+    assert batch.nodes == max(r.nodes for r in singles)
+    assert batch.method == "+".join(sorted({r.method for r in singles}))
+
+
+@pytest.mark.parametrize("robot, frame, hard", [
+    ("ur5", "tool0", [0.0, -1.57, 0.0, -1.57, 0.0, 0.0]),  # elbow straight: the graded rule
+    ("solo12", "FL_FOOT", None),  # a foot on the ground (W's eigenvalues 30× apart): the cone's third level
+])
+def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, hard):
+    """A rough cone across configurations runs the single impact's compiled call once for all rows
+    (RoughLaw.apply_factored_stack): each row is mbimpact.impact's result at its configuration to the last
+    bit, on generic and on strongly anisotropic W, with the methods that settled each row reported."""
+    mech = mechanism(robot)
+    Q = np.stack([mech.random_configuration(rng) for _ in range(30)])
+    if hard is None:
+        hard = mech.neutral()
+        hard[2] = 0.336
+    Q[::7] = hard
+    contact = mbi.PointContact(frame)
+    V = _approaching_rows(mech, Q, contact, rng)
+    law = mbi.RoughLaw(mbi.Cone(0.4), 0.5)
+    assert law.factored_stack()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        batch = mbi.impact_batch(mech, Q, V, contact, law)
+        singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
+    _assert_rows_are_single_impacts(batch, singles)
+    expected = {"ur5": {"graded-pass", "cone-pair"}, "solo12": {"cone-pair", "cone-pass"}}[robot]
+    assert expected <= set(batch.method.split("+"))
+    assert np.all(batch.energy_loss >= 0.0)
+
+
+def test_rough_cone_impact_batch_hands_declined_rows_to_impact(rng):
+    """Rows the compiled call does not settle go through mbimpact.impact: a point that only two joints
+    move (W of rank 2: the general route's range projector), and a row that does not approach (named)."""
+    mech = mechanism("ur5")
+    contact = mbi.PointContact("forearm_link", point=[0.2, 0.0, 0.0])
+    Q = np.stack([mech.random_configuration(rng) for _ in range(6)])
+    V = _approaching_rows(mech, Q, contact, rng)
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    upper = mbi.PointContact("upper_arm_link", point=[0.0, 0.0, 0.3])  # joints 1 and 2: rank 2
+    Vu = _approaching_rows(mech, Q, upper, rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        for c, VV in ((contact, V), (upper, Vu)):
+            batch = mbi.impact_batch(mech, Q, VV, c, law)
+            _assert_rows_are_single_impacts(batch, [mbi.impact(mech, q, v, c, law) for q, v in zip(Q, VV)])
+    # the compiled call declines a W of rank 2 (prepare's rank screen): every row took the general route
+    assert all(np.linalg.matrix_rank(J, tol=1e-9) == 2 for J in batch.J)
+    V[3] = -V[3]
+    with pytest.raises(mbi.NoImpactError, match="does not approach"):
+        mbi.impact_batch(mech, Q, V, contact, law)
+
+
+def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng):
+    """The compiled rows whose contact still approaches after the impact (κ < 0) make one
+    NoSeparationWarning for the batch, with the single impact's text; a batch whose rows all separate, none."""
+    mech = mechanism("ur5")
+    elbow = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    Q = np.stack([elbow] * 4)
+    J = mech.point_jacobian(elbow, "tool0")
+    oblique = np.linalg.lstsq(J, [0.3, 0.1, -1.0], rcond=None)[0]
+    V = np.stack([oblique * s for s in (1.0, 2.0, 3.0, 4.0)])
+    law, contact = mbi.RoughLaw(mbi.Cone(0.4), 0.5), mbi.PointContact("tool0")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        batch = mbi.impact_batch(mech, Q, V, contact, law)
+    assert not batch.separates.any() and batch.method == "graded-pass"  # homogeneity: every row as the first
+    assert [type(w.message) for w in caught] == [mbi.NoSeparationWarning]
+    assert "kappa < 0" in str(caught[0].message) and caught[0].filename == __file__
+    Q = np.stack([mech.random_configuration(rng) for _ in range(4)])  # generic postures, normal incidence
+    V = np.stack([np.linalg.lstsq(mech.point_jacobian(q, "tool0"), [0.0, 0.0, -1.0], rcond=None)[0] for q in Q])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        batch = mbi.impact_batch(mech, Q, V, contact, law)
+    assert batch.separates.all() and not caught
+
+
+def test_a_law_without_a_factored_route_says_so(rng):
+    """Only a law whose factored_stack() is True takes apply_factored_stack; the others say what has one."""
+    mech = mechanism("ur5")
+    q = mech.random_configuration(rng)
+    A, U, D = (a.copy()[None] for a in mech.factor_arrays(q))
+    J, V, R = mech.point_jacobian(q, "tool0")[None], -mech.point_jacobian(q, "tool0")[2][None], np.eye(3)[None]
+    gaussian = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
+    assert not gaussian.factored_stack() and not mbi.NewtonLaw(0.5).factored_stack()
+    with pytest.raises(mbi.ParameterError, match="a Cone by method='auto'"):
+        gaussian.apply_factored_stack(A, U, D, J, V, R, lambda i: None)
+    with pytest.raises(NotImplementedError, match="NewtonLaw"):
+        mbi.NewtonLaw(0.5).apply_factored_stack(A, U, D, J, V, R, lambda i: None)
+    assert not mbi.RoughLaw(mbi.Cone(0.4), 0.5, method="adaptive").factored_stack()
 
 
 def test_impact_batch_names_a_bad_row_as_the_row_by_row_route_does(rng):
