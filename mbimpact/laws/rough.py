@@ -383,14 +383,20 @@ class RoughLaw(ImpactLaw):
         settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
         methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
         error = stats[:, 0].copy()
+        # as _single_result: a compiled row whose contact still approaches after the impact (κ < 0) warns, once,
+        # before the rows after it (a later row's error, or a filter that raises the warning, comes in row order)
+        approaching = np.flatnonzero(settled & ~(stats[:, 3] >= -SEPARATION_RTOL * stats[:, 1]))
+        first = int(approaching[0]) if approaching.size else B
         for i in np.flatnonzero(~settled).tolist():
+            if i > first:
+                self._warn_no_separation()
+                first = B
             result = row(i)
             buffer[i, :3 * n + 12] = np.concatenate([result.v_minus, result.v_plus, result.dv, result.P,
                                                      result.u_minus, result.u_plus, result.n0])
             error[i], nodes[i] = result.error_estimate, result.nodes
             methods.add(result.method)
-        # as _single_result: a contact that still approaches after the impact (κ < 0)
-        if np.any(settled & ~(stats[:, 3] >= -SEPARATION_RTOL * stats[:, 1])):
+        if first < B:
             self._warn_no_separation()
         v_minus, v_plus, dv, P, u_minus, u_plus, n0 = np.split(buffer[:, :3 * n + 12], np.cumsum([n, n, n, 3, 3, 3]),
                                                                axis=1)  # the single result's layout

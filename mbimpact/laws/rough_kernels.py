@@ -50,10 +50,10 @@ _F, _I = types.float64, types.int64
 _TABLE = types.Array(types.float64, 2, "C", readonly=True)
 _CONE_IMPACT = types.Tuple((_I, _I, _F, _F, _F, _F, types.boolean))(
     _IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F, types.float64[::1])
-# the stacks of impact_batch: made by it, C-contiguous
-_S2, _S3 = types.float64[:, ::1], types.float64[:, :, ::1]
-_CONE_BATCH = types.none(_S3, _S2, _S3, _S2, _S3, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F, _S2,
-                         types.int64[::1], types.int64[::1], _S2)
+# the stacks of a batch read as any strides (a caller's V may be a view), its outputs C-contiguous
+_IN3, _OUT2 = types.Array(types.float64, 3, "A", readonly=True), types.float64[:, ::1]
+_CONE_BATCH = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, types.boolean, _F, _F,
+                         _OUT2, types.int64[::1], types.int64[::1], _OUT2)
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array
-from ..errors import ParameterError, ShapeError
+from ..errors import ImpactError, ParameterError, ShapeError
 from ..results.impact import BatchResult, ImpactResult
 from ..laws.base import ImpactLaw
 from .contact import Contact
@@ -134,19 +134,27 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
         _bad_shapes(contact, J0, R0, d, mech.nv)
     B, n = len(Q), mech.nv
     A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
+    # Pinocchio's factor of every A(q) (what the single impacts' kernels read), for a factored stack
+    U, D = np.empty((B if factored else 0, n, n)), np.empty((B if factored else 0, n))
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
     model, data, unit = mech.model, mech.workspace().data, mech.nq != mech.nv
-    if factored:  # Pinocchio's factor of every A(q), what the single impacts' kernels read
-        U, D = np.empty((B, n, n)), np.empty((B, n))
-        for i, q in enumerate(Q):
+    bad: ImpactError | None = None
+    for i, q in enumerate(Q):
+        try:
             if unit:
                 mech.check_configuration(q)
             J[i], R[i] = contact.jacobian(mech, q, d)
+        except ImpactError as error:
+            bad = error
+            break
+        if factored:
             A[i], U[i], D[i] = mech.factor_arrays(q)
-        return law.apply_factored_stack(A, U, D, J, V, R, lambda i: impact(mech, Q[i], V[i], contact, law))
-    for i, q in enumerate(Q):
-        if unit:
-            mech.check_configuration(q)
-        J[i], R[i] = contact.jacobian(mech, q, d)
-        A[i] = pin.crba(model, data, q)  # as Mechanism.mass_matrix, copied into the stack
+        else:
+            A[i] = pin.crba(model, data, q)  # as Mechanism.mass_matrix, copied into the stack
+    if bad is not None:  # the row-by-row route raises the first bad row's error: an earlier row's, if any
+        for k in range(i):
+            impact(mech, Q[k], V[k], contact, law)
+        raise bad
+    if factored:
+        return law.apply_factored_stack(A, U, D, J, V, R, lambda k: impact(mech, Q[k], V[k], contact, law))
     return law.apply_stack(A, J, V, R)

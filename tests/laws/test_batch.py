@@ -175,6 +175,48 @@ def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng
     assert batch.separates.all() and not caught
 
 
+def test_rough_cone_impact_batch_takes_any_memory_layout(rng):
+    """V and Q as Fortran-ordered, strided, broadcast or read-only arrays: the same rows to the bit."""
+    mech = mechanism("ur5")
+    contact, law = mbi.PointContact("tool0"), mbi.RoughLaw(mbi.Cone(0.4), 0.5)
+    Q = np.stack([mech.random_configuration(rng) for _ in range(4)])
+    V = _approaching_rows(mech, Q, contact, rng)
+    reference = mbi.impact_batch(mech, Q, V, contact, law)
+    frozen = V.copy()
+    frozen.setflags(write=False)
+    expected = reference.V_plus
+    for QQ, VV, rows in ((np.asfortranarray(Q), np.asfortranarray(V), expected), (Q, frozen, expected),
+                         (Q, np.repeat(V, 2, axis=1)[:, ::2], expected), (Q[::-1], V[::-1], expected[::-1])):
+        assert np.array_equal(mbi.impact_batch(mech, QQ, VV, contact, law).V_plus, rows)
+    same = mbi.impact_batch(mech, np.broadcast_to(Q[0], Q.shape), np.broadcast_to(V[0], V.shape), contact, law)
+    assert np.array_equal(same.V_plus, np.broadcast_to(reference.V_plus[0], V.shape))
+
+
+def test_rough_cone_impact_batch_raises_and_warns_in_row_order(rng):
+    """As the row-by-row loop: an earlier row's error comes before a later row's bad quaternion, and a
+    NoSeparationWarning of an earlier row before a later row's error (a filter that raises it sees it first)."""
+    solo = mechanism("solo12")
+    contact, law = mbi.PointContact("FL_FOOT"), mbi.RoughLaw(mbi.Cone(0.4), 0.5)
+    Q = np.stack([solo.neutral()] * 2)
+    Q[1, 3:7] *= 1.1  # not normalised
+    V = np.zeros((2, solo.nv))
+    V[:, 2] = 1.0  # the base moves up: row 0 does not approach
+    with pytest.raises(mbi.NoImpactError, match="does not approach"):
+        mbi.impact_batch(solo, Q, V, contact, law)
+    ur5 = mechanism("ur5")
+    elbow = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
+    oblique = np.linalg.lstsq(ur5.point_jacobian(elbow, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    Q, V = np.stack([elbow] * 3), np.stack([oblique, 2 * oblique, -oblique])  # the last row recedes
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mbi.NoSeparationWarning)
+        with pytest.raises(mbi.NoSeparationWarning):
+            mbi.impact_batch(ur5, Q, V, mbi.PointContact("tool0"), law)
+    with warnings.catch_warnings(record=True) as caught, pytest.raises(mbi.NoImpactError):
+        warnings.simplefilter("always")
+        mbi.impact_batch(ur5, Q, V, mbi.PointContact("tool0"), law)
+    assert [type(w.message) for w in caught] == [mbi.NoSeparationWarning]
+
+
 def test_a_law_without_a_factored_route_says_so(rng):
     """Only a law whose factored_stack() is True takes apply_factored_stack; the others say what has one."""
     mech = mechanism("ur5")
