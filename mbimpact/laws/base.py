@@ -348,6 +348,40 @@ class ImpactLaw(ABC):
         """
         raise NotImplementedError(f"{type(self).__name__} has no route for factored stacks (factored_stack() is False)")
 
+    def _factored_result(self, A: NDArray[np.float64], J: NDArray[np.float64], buffer: NDArray[np.float64],
+                         settled: NDArray[np.bool_], nodes: NDArray[np.int64], stats: NDArray[np.float64],
+                         methods: set[str], row: Callable[[int], ImpactResult]) -> BatchResult:
+        """The result of a factored stack (:meth:`apply_factored_stack`) whose kernel ran each row's compiled
+        single impact into ``buffer[i]`` (B, ≥ 3n + 12): the rows ``settled`` there, the others ``row(i)``.
+
+        ``nodes`` (B,) and ``stats`` (B, ≥ 4: error estimate, |u₋|, tr W, n⁰ · u₊) are the kernel's for the
+        settled rows, whose averaging methods are ``methods``. As the row-by-row loop of
+        :func:`mbimpact.impact`: the fields are its own to the bit, ``nodes`` and ``method`` what
+        :meth:`BatchResult.stack` reports, errors come in row order, and a settled row whose contact
+        still approaches warns (once for the batch: the single impact's text) before the rows after it.
+        """
+        B, n = len(buffer), A.shape[-1]
+        error = stats[:, 0].copy()
+        # as _single_result: a compiled row whose contact still approaches after the impact (κ < 0) warns, once,
+        # before the rows after it (a later row's error, or a filter that raises the warning, comes in row order)
+        approaching = np.flatnonzero(settled & ~(stats[:, 3] >= -SEPARATION_RTOL * stats[:, 1]))
+        first = int(approaching[0]) if approaching.size else B
+        for i in np.flatnonzero(~settled).tolist():
+            if i > first:
+                self._warn_no_separation()
+                first = B
+            result = row(i)
+            buffer[i, :3 * n + 12] = np.concatenate([result.v_minus, result.v_plus, result.dv, result.P,
+                                                     result.u_minus, result.u_plus, result.n0])
+            error[i], nodes[i] = result.error_estimate, result.nodes
+            methods.add(result.method)
+        if first < B:
+            self._warn_no_separation()
+        v_minus, v_plus, dv, P, u_minus, u_plus, n0 = np.split(buffer[:, :3 * n + 12], np.cumsum([n, n, n, 3, 3, 3]),
+                                                               axis=1)  # the single result's layout
+        return BatchResult(V_minus=v_minus, V_plus=v_plus, dV=dv, P=P, U_minus=u_minus, U_plus=u_plus, n0=n0, A=A, J=J,
+                           law=self, error_estimate=error, nodes=int(nodes.max()), method="+".join(sorted(methods)))
+
     # ------------------------------------------------------------------ batch
     def apply_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike) -> BatchResult:
         """:meth:`apply` for many velocities at one configuration, vectorised.

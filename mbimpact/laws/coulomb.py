@@ -65,7 +65,7 @@ from __future__ import annotations
 import math
 import sys
 from types import ModuleType
-from typing import Literal
+from typing import Callable, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,9 +75,9 @@ from ..common.geometry import DEGENERATE
 from ..common.validation import as_scalar, check_in_range, quiet_overflow
 from ..errors import IntegrationError, ParameterError
 from ..metric.delassus import ContactMetric
-from ..results.impact import ContactImpulses, ImpactResult
+from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
-from .base import ImpactLaw
+from .base import RANK_FLOOR, ImpactLaw
 from .restitution import restitution_from
 
 __all__ = ["CoulombLaw", "KERNELS", "compile_kernels"]
@@ -243,6 +243,31 @@ class CoulombLaw(ImpactLaw):
         # apply_metric below is ImpactLaw's pipeline in floats: a mechanism's spatial impact may take the
         # compiled route instead, unless a subclass overrides apply_metric
         return type(self).apply_metric is CoulombLaw.apply_metric and type(self).impulses is ImpactLaw.impulses
+
+    def factored_stack(self) -> bool:
+        """True where a mechanism's spatial impact takes the compiled route (:meth:`ImpactLaw.apply_mechanism`):
+        :func:`mbimpact.impact_batch` then runs that route once for all rows (:meth:`apply_factored_stack`)."""
+        return self._compiled_route()
+
+    def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
+                             J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
+                             row: Callable[[int], ImpactResult]) -> BatchResult:
+        """:meth:`ImpactLaw.apply_factored_stack`: :func:`mbimpact.laws.coulomb_kernels.coulomb_batch`, the
+        compiled single impact once for all rows; each row's result is that of :func:`mbimpact.impact` to
+        the bit. The rows it leaves (what the metric does not prepare, n⁰ out of reach, an integration that
+        gives up, an outcome beyond the float range) are ``row(i)``, which names or treats them
+        (:meth:`ImpactLaw._factored_result`)."""
+        if not self.factored_stack():
+            raise ParameterError(f"{self!r}: a subclass that overrides apply_metric or impulses has no compiled "
+                                 "route for batches across configurations; mbimpact.impact_batch applies it row by row")
+        kernels = KERNELS.get()
+        B, n = V.shape
+        buffer = np.empty((B, 6 * n + 33))  # each row's single-impact buffer (mbimpact.metric.kernels.single_size)
+        status, steps, stats = np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+        kernels.coulomb_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, self._law(), buffer, status, steps, stats)
+        settled = (status == 0) & (stats[:, 4] == 1.0)
+        methods = {"impulse-space"} if settled.any() else set()
+        return self._factored_result(A, J, buffer, settled, np.maximum(steps, 1), stats, methods, row)
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         """:meth:`ImpactLaw.apply_metric` without the batch machinery: one impact in floats, and at most

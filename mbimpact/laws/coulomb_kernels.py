@@ -46,8 +46,10 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-__all__ = ["impact_rows", "impact_one", "impact_local", "jit_seconds", "py_hypot", "NEWTON", "POISSON", "ENERGETIC",
-           "MODES", "LAW_SIZE", "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES",
+from ..metric.kernels import READY, finish_into, prepare_into
+
+__all__ = ["impact_rows", "impact_one", "impact_local", "coulomb_batch", "jit_seconds", "py_hypot", "NEWTON", "POISSON",
+           "ENERGETIC", "NOT_PREPARED", "MODES", "LAW_SIZE", "JAMMED", "NO_END", "INFINITE", "STALLED", "TOO_MANY_STEPS", "TOO_MANY_PHASES",
            "BAD_TRACE", "OUT_OF_REACH"]
 
 # ---------------------------------------------------------------------- layouts
@@ -1149,6 +1151,66 @@ def impact_local(W: NDArray[np.float64], U: NDArray[np.float64], law: tuple[floa
             out[0, 1] = result[2] * scale
         out[0, d - 1] = result[3] * scale
     return status, steps
+
+
+# coulomb_batch's types: the stacks of impact_batch at any strides, its outputs C-contiguous
+_IN2, _IN3 = types.Array(types.float64, 2, "A", readonly=True), types.Array(types.float64, 3, "A", readonly=True)
+_OUT2 = types.float64[:, ::1]
+_BATCH_SIGNATURE = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, types.float64, types.float64,
+                              types.UniTuple(types.float64, LAW_SIZE), _OUT2, types.int64[::1], types.int64[::1], _OUT2)
+
+#: :func:`coulomb_batch`'s status of a row the metric did not prepare (the others are :func:`impact_one`'s).
+NOT_PREPARED = -1
+
+
+@njit([_BATCH_SIGNATURE], cache=True, error_model="numpy")
+def coulomb_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
+                  R: NDArray[np.float64], degenerate: float, rank_floor: float, law: tuple[float, ...],
+                  buf: NDArray[np.float64], status: NDArray[np.int64], steps: NDArray[np.int64],
+                  stats: NDArray[np.float64]) -> None:  # pragma: no cover — compiled
+    """B spatial impacts of a mechanism, each at its own configuration, in one call: row i is the compiled
+    single impact of :class:`~mbimpact.CoulombLaw` (:func:`mbimpact.metric.kernels.prepare_factor`,
+    :func:`impact_local`, :func:`mbimpact.metric.kernels.finish`) on ``U[i], D[i], J[i], V[i], R[i]``
+    and ``buf[i]``: the same arithmetic, so the same result to the bit.
+
+    Parameters
+    ----------
+    U, D, J, V, R : ndarray, shapes (B, n, n), (B, n), (B, 3, n), (B, n), (B, 3, 3)
+        Each row's factor A = U D Uᵀ, contact Jacobian, velocity and contact frame.
+    degenerate, rank_floor : float
+        As for ``prepare_factor``.
+    law : tuple
+        The law tuple (:meth:`mbimpact.CoulombLaw._law`).
+    buf : ndarray, shape (B, 6n + 33)
+        Each row's single-impact buffer; its head is the row's result where ``status`` is 0.
+    status, steps : ndarray of int, shape (B,)
+        Output: 0 where the row's result is in ``buf``, :data:`NOT_PREPARED`, or :func:`impact_one`'s
+        status (what the caller's row-by-row route names or treats); the integration steps.
+    stats : ndarray, shape (B, 5)
+        Output: the error estimate (rtol where a turning slip was integrated, else 0), |u₋|, tr(RᵀWR),
+        n⁰ · u₊, and 1.0 where P, v₊ and u₊ are finite (else 0.0).
+    """
+    w0 = 3 * V.shape[1] + 21  # W_local (row-major), then U_local (mbimpact.metric.kernels.local_views)
+    P = np.empty((1, 3))
+    for i in range(V.shape[0]):
+        row = buf[i]
+        prepared, speed, w_scale = prepare_into(U[i], D[i], J[i], V[i], R[i], degenerate, rank_floor, row)
+        steps[i] = 0
+        if prepared != READY:
+            status[i] = NOT_PREPARED
+            continue
+        w = (3.0, row[w0], row[w0 + 1], row[w0 + 2], row[w0 + 3], row[w0 + 4], row[w0 + 5], row[w0 + 6],
+             row[w0 + 7], row[w0 + 8])
+        result = impact_one(w, law, row[w0 + 9], row[w0 + 10], row[w0 + 11])
+        status[i], steps[i] = result[0], result[4]
+        if result[0] != 0:
+            continue
+        scale = result[5]  # impact_local's impulse
+        P[0, 0], P[0, 1], P[0, 2] = result[1] * scale, result[2] * scale, result[3] * scale
+        finite, un_plus = finish_into(P, R[i], speed / w_scale, row)
+        stats[i, 0] = law[RTOL] if result[4] > 0 else 0.0  # CoulombLaw.single_impulse's error estimate
+        stats[i, 1], stats[i, 2], stats[i, 3] = speed, w_scale, un_plus
+        stats[i, 4] = 1.0 if finite else 0.0
 
 
 def jit_seconds() -> float:

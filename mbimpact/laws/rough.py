@@ -368,8 +368,7 @@ class RoughLaw(ImpactLaw):
         compiled single impact of :meth:`apply_mechanism` once for all rows; each row's result is that of
         :func:`mbimpact.impact` to the bit. The rows it leaves (what the compiled methods do not settle,
         what the metric does not prepare, an outcome beyond the float range) are ``row(i)``, which names
-        or treats them. One :class:`~mbimpact.NoSeparationWarning` for the compiled rows whose contact
-        still approaches (``row`` warns for its own)."""
+        or treats them (:meth:`ImpactLaw._factored_result`)."""
         plan = self._cone_plan()
         if plan is None:
             raise ParameterError(f"{self!r}: no compiled route for batches across configurations (factored_stack() "
@@ -382,26 +381,7 @@ class RoughLaw(ImpactLaw):
         kernels.cone_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, *plan, buffer, status, nodes, stats)
         settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
         methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
-        error = stats[:, 0].copy()
-        # as _single_result: a compiled row whose contact still approaches after the impact (κ < 0) warns, once,
-        # before the rows after it (a later row's error, or a filter that raises the warning, comes in row order)
-        approaching = np.flatnonzero(settled & ~(stats[:, 3] >= -SEPARATION_RTOL * stats[:, 1]))
-        first = int(approaching[0]) if approaching.size else B
-        for i in np.flatnonzero(~settled).tolist():
-            if i > first:
-                self._warn_no_separation()
-                first = B
-            result = row(i)
-            buffer[i, :3 * n + 12] = np.concatenate([result.v_minus, result.v_plus, result.dv, result.P,
-                                                     result.u_minus, result.u_plus, result.n0])
-            error[i], nodes[i] = result.error_estimate, result.nodes
-            methods.add(result.method)
-        if first < B:
-            self._warn_no_separation()
-        v_minus, v_plus, dv, P, u_minus, u_plus, n0 = np.split(buffer[:, :3 * n + 12], np.cumsum([n, n, n, 3, 3, 3]),
-                                                               axis=1)  # the single result's layout
-        return BatchResult(V_minus=v_minus, V_plus=v_plus, dV=dv, P=P, U_minus=u_minus, U_plus=u_plus, n0=n0, A=A, J=J,
-                           law=self, error_estimate=error, nodes=int(nodes.max()), method="+".join(sorted(methods)))
+        return self._factored_result(A, J, buffer, settled, nodes, stats, methods, row)
 
     def _cone_plan(self) -> tuple[Any, ...] | None:
         """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded

@@ -102,11 +102,11 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
     -----
     Pinocchio's work (J, R and A per row) runs in one lean loop; a law with a closed
     form (:meth:`ImpactLaw.apply_stack`: Newton's) then treats all rows at once with
-    batched LAPACK, and a law whose single impact is one compiled call on Pinocchio's factor of
-    A(q) (:meth:`ImpactLaw.apply_factored_stack`: a :class:`RoughLaw` on a :class:`Cone`) makes
-    that call once for all rows, the same result as :func:`impact` row by row, to the bit. The other
-    laws, and batches with a degenerate row, are applied row by row as :func:`impact` does (the
-    same errors and warnings, raised at the first bad row).
+    batched LAPACK, and a law whose single impact is one compiled call on Pinocchio's factor
+    of A(q) (:meth:`ImpactLaw.apply_factored_stack`: a :class:`RoughLaw` on a :class:`Cone`,
+    the :class:`CoulombLaw`) makes that call once for all rows, each row :func:`impact`'s
+    result to the bit. The other laws, and the rows those routes leave, are applied row by
+    row as :func:`impact` does (the same errors and warnings, in row order).
     """
     _check_parts(mech, contact, law)
     Q = as_array("Q", Q, 2, (None, mech.nq))

@@ -73,12 +73,12 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     assert len(modules) == len(mbi.compile_kernels()) and all(0.0 < t < 60.0 for t in modules.values())
     assert jit["all compiled kernels (mbimpact.compile_kernels())"] == pytest.approx(sum(modules.values()))
     conf = {r["method"]: r for r in rows if r["part"] == "configurations"}
-    assert set(conf) == {"loop of Jacobian + pin.impulseDynamics", "impact_batch, NewtonLaw",
-                         "impact_batch, RoughLaw(Cone)"}
-    # both batches have their goal (≥ 1e5 impacts/s); the cone's is the single impact's compiled call, once
-    # for all rows, so the two cost about the same (their order is up to this shared machine's noise)
-    assert all(float(conf[f"impact_batch, {law}"]["ratio"]) > 0.0 for law in ("NewtonLaw", "RoughLaw(Cone)"))
-    assert "2000 configurations: impact_batch, RoughLaw(Cone) |" in text
+    laws = ("NewtonLaw", "RoughLaw(Cone)", "CoulombLaw")
+    assert set(conf) == {"loop of Jacobian + pin.impulseDynamics"} | {f"impact_batch, {law}" for law in laws}
+    # every batch has its goal (≥ 1e5 impacts/s); the cone's and Coulomb's run the single impact's compiled
+    # call once for all rows, so they cost about what Newton's does (their order is this machine's noise)
+    assert all(float(conf[f"impact_batch, {law}"]["ratio"]) > 0.0 for law in laws)
+    assert all(f"2000 configurations: impact_batch, {law} |" in text for law in laws)
     # batches in fresh interpreters under both BLAS settings (the thread limit itself: tests/common/test_threads.py)
     thr = {(r["case"], r["method"]): float(r["ratio"]) for r in rows if r["part"] == "threads"}
     assert set(thr) == {(f"ur5, BLAS threads{s}", f"apply_batch, {law}") for s in (" = 1", ": default")

@@ -129,26 +129,47 @@ def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, fra
     assert np.all(batch.energy_loss >= 0.0)
 
 
+@pytest.mark.parametrize("robot, frame", [("ur5", "tool0"), ("solo12", "FL_FOOT"), ("panda", "panda_hand")])
+def test_coulomb_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame):
+    """The Coulomb law across configurations runs its compiled single impact once for all rows
+    (CoulombLaw.apply_factored_stack): every row, closed form or integrated turning slip, under each
+    restitution hypothesis, is mbimpact.impact's result to the last bit."""
+    mech = mechanism(robot)
+    contact = mbi.PointContact(frame)
+    Q = np.stack([mech.random_configuration(rng) for _ in range(40)])
+    V = _approaching_rows(mech, Q, contact, rng)
+    for law in (mbi.CoulombLaw(0.5, 0.3), mbi.CoulombLaw(0.2, 0.8, restitution="poisson"),
+                mbi.CoulombLaw(0.0, 0.1, restitution="newton")):
+        assert law.factored_stack()
+        batch = mbi.impact_batch(mech, Q, V, contact, law)
+        singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
+        _assert_rows_are_single_impacts(batch, singles)
+        assert batch.nodes > 1  # some slip turned and was integrated
+        assert np.all(batch.energy_loss >= -1e-12 * np.abs(batch.V_minus).max() ** 2)
+
+
 def test_rough_cone_impact_batch_hands_declined_rows_to_impact(rng):
-    """Rows the compiled call does not settle go through mbimpact.impact: a point that only two joints
-    move (W of rank 2: the general route's range projector), and a row that does not approach (named)."""
+    """Rows the compiled call does not settle go through mbimpact.impact, for the rough cone and for the
+    Coulomb law: a point that only two joints move (W of rank 2: the general route's range projector), and
+    a row that does not approach (named)."""
     mech = mechanism("ur5")
     contact = mbi.PointContact("forearm_link", point=[0.2, 0.0, 0.0])
     Q = np.stack([mech.random_configuration(rng) for _ in range(6)])
     V = _approaching_rows(mech, Q, contact, rng)
-    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
     upper = mbi.PointContact("upper_arm_link", point=[0.0, 0.0, 0.3])  # joints 1 and 2: rank 2
     Vu = _approaching_rows(mech, Q, upper, rng)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
-        for c, VV in ((contact, V), (upper, Vu)):
-            batch = mbi.impact_batch(mech, Q, VV, c, law)
-            _assert_rows_are_single_impacts(batch, [mbi.impact(mech, q, v, c, law) for q, v in zip(Q, VV)])
-    # the compiled call declines a W of rank 2 (prepare's rank screen): every row took the general route
-    assert all(np.linalg.matrix_rank(J, tol=1e-9) == 2 for J in batch.J)
-    V[3] = -V[3]
-    with pytest.raises(mbi.NoImpactError, match="does not approach"):
-        mbi.impact_batch(mech, Q, V, contact, law)
+    for law in (mbi.RoughLaw(mbi.Cone(0.3), 0.5), mbi.CoulombLaw(0.5, 0.3)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+            for c, VV in ((contact, V), (upper, Vu)):
+                batch = mbi.impact_batch(mech, Q, VV, c, law)
+                _assert_rows_are_single_impacts(batch, [mbi.impact(mech, q, v, c, law) for q, v in zip(Q, VV)])
+        # the compiled call declines a W of rank 2 (prepare's rank screen): every row took the general route
+        assert all(np.linalg.matrix_rank(J, tol=1e-9) == 2 for J in batch.J)
+        bad = V.copy()
+        bad[3] = -bad[3]
+        with pytest.raises(mbi.NoImpactError, match="does not approach"):
+            mbi.impact_batch(mech, Q, bad, contact, law)
 
 
 def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng):
@@ -225,6 +246,14 @@ def test_a_law_without_a_factored_route_says_so(rng):
     J, V, R = mech.point_jacobian(q, "tool0")[None], -mech.point_jacobian(q, "tool0")[2][None], np.eye(3)[None]
     gaussian = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
     assert not gaussian.factored_stack() and not mbi.NewtonLaw(0.5).factored_stack()
+
+    class Floats(mbi.CoulombLaw):  # overrides the pipeline: its impacts take its own route
+        def apply_metric(self, metric, v, R):
+            return super().apply_metric(metric, v, R)
+
+    assert not Floats(0.5, 0.3).factored_stack()
+    with pytest.raises(mbi.ParameterError, match="overrides apply_metric"):
+        Floats(0.5, 0.3).apply_factored_stack(A, U, D, J, V, R, lambda i: None)
     with pytest.raises(mbi.ParameterError, match="a Cone by method='auto'"):
         gaussian.apply_factored_stack(A, U, D, J, V, R, lambda i: None)
     with pytest.raises(NotImplementedError, match="NewtonLaw"):

@@ -70,7 +70,8 @@ def configurations(quick: bool, progress: Progress) -> list[BenchRow]:
     case = f"ur5 (n={mech.nv}), {size} configurations"
     rows = [BenchRow("configurations", case, "loop of Jacobian + pin.impulseDynamics", size, 0.0, t_pin, 1.0)]
     for label, law, count in (("impact_batch, NewtonLaw", NewtonLaw(E), size),
-                              ("impact_batch, RoughLaw(Cone)", RoughLaw(Cone(0.3), E), size)):
+                              ("impact_batch, RoughLaw(Cone)", RoughLaw(Cone(0.3), E), size),
+                              ("impact_batch, CoulombLaw", CoulombLaw(E, 0.3), size)):
         passes = []
         for _ in range(2):
             start = time.perf_counter()
@@ -304,7 +305,7 @@ def goals(rows: list[BenchRow]) -> list[Goal]:
         if r.part == "threads":
             target = 1e7 if r.method.endswith("NewtonLaw") else 1e6
             out.append(Goal(f"{r.case}: {r.method}, one configuration", target, r.ratio, "impacts/s", below=False))
-    for law in ("NewtonLaw", "RoughLaw(Cone)"):
+    for law in ("NewtonLaw", "RoughLaw(Cone)", "CoulombLaw"):
         for r in find("configurations", "ur5", f"impact_batch, {law}"):
             out.append(Goal(f"{r.case}: impact_batch, {law}", 1e5, 1.0 / r.seconds, "impacts/s", below=False))
     for r in find("import", None, "import mbimpact"):
