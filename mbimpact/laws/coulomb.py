@@ -246,8 +246,11 @@ class CoulombLaw(ImpactLaw):
 
     def factored_stack(self) -> bool:
         """True where a mechanism's spatial impact takes the compiled route (:meth:`ImpactLaw.apply_mechanism`):
-        :func:`mbimpact.impact_batch` then runs that route once for all rows (:meth:`apply_factored_stack`)."""
-        return self._compiled_route()
+        :func:`mbimpact.impact_batch` then runs that route once for all rows (:meth:`apply_factored_stack`), unless
+        a subclass changes the law that route runs (:meth:`single_impulse` or the kernels' law tuple)."""
+        cls = type(self)
+        return (self._compiled_route() and cls.single_impulse is CoulombLaw.single_impulse
+                and cls._law is CoulombLaw._law)
 
     def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
                              J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
@@ -258,8 +261,9 @@ class CoulombLaw(ImpactLaw):
         gives up, an outcome beyond the float range) are ``row(i)``, which names or treats them
         (:meth:`ImpactLaw._factored_result`)."""
         if not self.factored_stack():
-            raise ParameterError(f"{self!r}: a subclass that overrides apply_metric or impulses has no compiled "
-                                 "route for batches across configurations; mbimpact.impact_batch applies it row by row")
+            raise ParameterError(f"{self!r}: a subclass that overrides apply_metric, impulses or single_impulse has no "
+                                 "compiled route for batches across configurations; mbimpact.impact_batch applies it "
+                                 "row by row")
         kernels = KERNELS.get()
         B, n = V.shape
         buffer = np.empty((B, 6 * n + 33))  # each row's single-impact buffer (mbimpact.metric.kernels.single_size)

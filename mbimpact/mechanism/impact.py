@@ -106,7 +106,8 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
     of A(q) (:meth:`ImpactLaw.apply_factored_stack`: a :class:`RoughLaw` on a :class:`Cone`,
     the :class:`CoulombLaw`) makes that call once for all rows, each row :func:`impact`'s
     result to the bit. The other laws, and the rows those routes leave, are applied row by
-    row as :func:`impact` does (the same errors and warnings, in row order).
+    row as :func:`impact` does (the same errors and warnings, in row order, once ``Q`` and
+    ``V`` have passed their checks as arrays: shape, finite).
     """
     _check_parts(mech, contact, law)
     Q = as_array("Q", Q, 2, (None, mech.nq))

@@ -251,9 +251,22 @@ def test_a_law_without_a_factored_route_says_so(rng):
         def apply_metric(self, metric, v, R):
             return super().apply_metric(metric, v, R)
 
-    assert not Floats(0.5, 0.3).factored_stack()
+    class Frictionless(mbi.CoulombLaw):  # changes the law the compiled route runs: impact_batch must honour it
+        def single_impulse(self, W, U):
+            out = super().single_impulse(W, U)
+            out.P[..., :2] = 0.0
+            return out
+
+    assert not Floats(0.5, 0.3).factored_stack() and not Frictionless(0.5, 0.7).factored_stack()
     with pytest.raises(mbi.ParameterError, match="overrides apply_metric"):
         Floats(0.5, 0.3).apply_factored_stack(A, U, D, J, V, R, lambda i: None)
+    Q = np.stack([mech.random_configuration(rng) for _ in range(3)])
+    contact = mbi.PointContact("tool0")
+    VV = _approaching_rows(mech, Q, contact, rng)
+    batch = mbi.impact_batch(mech, Q, VV, contact, Frictionless(0.5, 0.7))
+    _assert_rows_are_single_impacts(batch, [mbi.impact(mech, q, v, contact, Frictionless(0.5, 0.7))
+                                            for q, v in zip(Q, VV)])
+    assert np.all(batch.P[:, :2] == 0.0)
     with pytest.raises(mbi.ParameterError, match="a Cone by method='auto'"):
         gaussian.apply_factored_stack(A, U, D, J, V, R, lambda i: None)
     with pytest.raises(NotImplementedError, match="NewtonLaw"):
