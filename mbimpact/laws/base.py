@@ -309,7 +309,8 @@ class ImpactLaw(ABC):
         """Impacts at many configurations at once, vectorised across rows, or None.
 
         A law whose contact impulse is a closed form in (W, u) overrides this; the others
-        return None and :func:`mbimpact.impact_batch` applies them row by row. None also
+        return None and :func:`mbimpact.impact_batch` applies them row by row (or through
+        :meth:`apply_factored_stack` where :meth:`factored_stack` says so). None also
         means "not for these rows" (a degenerate row the row-by-row route names or treats).
 
         Parameters
