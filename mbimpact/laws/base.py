@@ -349,6 +349,14 @@ class ImpactLaw(ABC):
         """
         raise NotImplementedError(f"{type(self).__name__} has no route for factored stacks (factored_stack() is False)")
 
+    @staticmethod
+    def _factored_outputs(B: int, n: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64],
+                                                   NDArray[np.float64]]:
+        """What a factored stack's kernel fills for B rows of n velocities: each row's single-impact buffer
+        (B, 6n + 33) (:func:`mbimpact.metric.kernels.single_size`), its status and node count (B,), and its
+        error estimate, |u₋|, tr W, n⁰ · u₊ and finiteness (B, 5) (:meth:`_factored_result` reads them)."""
+        return np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+
     def _factored_result(self, A: NDArray[np.float64], J: NDArray[np.float64], buffer: NDArray[np.float64],
                          settled: NDArray[np.bool_], nodes: NDArray[np.int64], stats: NDArray[np.float64],
                          methods: set[str], row: Callable[[int], ImpactResult]) -> BatchResult:

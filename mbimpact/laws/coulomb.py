@@ -265,9 +265,7 @@ class CoulombLaw(ImpactLaw):
                                  "compiled route for batches across configurations; mbimpact.impact_batch applies it "
                                  "row by row")
         kernels = KERNELS.get()
-        B, n = V.shape
-        buffer = np.empty((B, 6 * n + 33))  # each row's single-impact buffer (mbimpact.metric.kernels.single_size)
-        status, steps, stats = np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+        buffer, status, steps, stats = self._factored_outputs(*V.shape)
         kernels.coulomb_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, self._law(), buffer, status, steps, stats)
         settled = (status == 0) & (stats[:, 4] == 1.0)
         methods = {"impulse-space"} if settled.any() else set()

@@ -375,9 +375,7 @@ class RoughLaw(ImpactLaw):
                                  "is False: a Cone by method='auto' with Newton facets has one); "
                                  "mbimpact.impact_batch applies this law row by row")
         kernels = KERNELS.get()
-        B, n = V.shape
-        buffer = np.empty((B, 6 * n + 33))  # each row's single-impact buffer (mbimpact.metric.kernels.single_size)
-        status, nodes, stats = np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+        buffer, status, nodes, stats = self._factored_outputs(*V.shape)
         kernels.cone_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, *plan, buffer, status, nodes, stats)
         settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
         methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
