@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from .averaging import METHODS as AVERAGING_METHODS
 from .averaging import Averaging
 from .common.compiled import compile_kernels
+from .common.threads import kernel_threads, set_kernel_threads
 from .errors import (
     AccuracyWarning,
     CollisionNotFoundError,
@@ -173,6 +174,8 @@ __all__ = [
     "k_from_e",
     "impact_duration",
     "compile_kernels",
+    "kernel_threads",
+    "set_kernel_threads",
     # compliant route
     "resolve",
     "Resolved",

@@ -13,7 +13,15 @@ from .geometry import (
     ring_quadratic_form,
     scaled_norm,
 )
-from .threads import SINGLE_THREAD_ROWS, single_blas_thread
+from .threads import (
+    BLOCK_ROWS,
+    ROWS_PER_THREAD,
+    SINGLE_THREAD_ROWS,
+    kernel_threads,
+    over_rows,
+    set_kernel_threads,
+    single_blas_thread,
+)
 from .validation import as_array, as_count, as_scalar, as_vector
 
 __all__ = [
@@ -27,6 +35,11 @@ __all__ = [
     "scaled_norm",
     "SINGLE_THREAD_ROWS",
     "single_blas_thread",
+    "BLOCK_ROWS",
+    "ROWS_PER_THREAD",
+    "kernel_threads",
+    "over_rows",
+    "set_kernel_threads",
     "as_array",
     "as_count",
     "as_scalar",

@@ -1,4 +1,5 @@
-"""BLAS threads during a batch: one, whatever the process's setting.
+"""Threads during a batch: one for BLAS, whatever the process's setting; several for the
+compiled kernels that treat independent rows.
 
 A batch of impacts multiplies tall, thin matrices ((B, 3) by (3, 3), (B, 3) by (3, n)):
 products too small along their inner axis for BLAS threads to pay. With OpenBLAS's
@@ -7,16 +8,32 @@ ran 3.2× slower on 2 cores with 2 threads than with 1, measured 2026-11-22). Ba
 therefore run with one BLAS thread, set through ``threadpoolctl`` for the duration of
 the call and restored after, so the user's own setting is untouched. The BLAS libraries
 are those of numpy and scipy (found once, on the first batch).
+
+The compiled kernels of :func:`mbimpact.impact_batch` treat each row on its own and release
+the GIL: :func:`over_rows` splits their rows into one contiguous block per thread. Every row
+is computed by the same arithmetic on whichever thread, so results do not depend on the
+thread count. It is that of the CPUs the process may run on, or ``MBIMPACT_NUM_THREADS``, or
+what :func:`set_kernel_threads` sets.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import os
+import queue
+import time
+from collections.abc import Callable
 from contextlib import AbstractContextManager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["SINGLE_THREAD_ROWS", "single_blas_thread"]
+from ..errors import ParameterError
+
+if TYPE_CHECKING:  # concurrent.futures is imported on the first threaded batch (it costs ~7 ms)
+    from concurrent.futures import Future, ThreadPoolExecutor
+
+__all__ = ["SINGLE_THREAD_ROWS", "ROWS_PER_THREAD", "BLOCK_ROWS", "single_blas_thread", "kernel_threads", "set_kernel_threads",
+           "over_rows"]
 
 # Below this many rows a batch's products are too short for threads to matter, and the
 # limit's own cost (~10 µs) would show.
@@ -45,3 +62,146 @@ def single_blas_thread(rows: int) -> AbstractContextManager[Any]:
     if all(lib.num_threads == 1 for lib in controller.lib_controllers if lib.user_api == "blas"):
         return contextlib.nullcontext()
     return controller.limit(limits=1, user_api="blas")
+
+
+#: Fewest rows a kernel's thread is given: below, handing rows to a thread (~20 µs) costs more
+#: than the thread saves.
+ROWS_PER_THREAD = 128
+
+_THREADS: list[int | None] = [None]  # set_kernel_threads's setting; None: from the environment
+
+
+def _available_cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def kernel_threads() -> int:
+    """How many threads :func:`over_rows` uses: :func:`set_kernel_threads`'s setting, else
+    ``MBIMPACT_NUM_THREADS``, else the CPUs the process may run on."""
+    n = _THREADS[0]
+    if n is None:
+        text = os.environ.get("MBIMPACT_NUM_THREADS", "").strip()
+        try:
+            n = int(text) if text else _available_cpus()
+        except ValueError:
+            raise ParameterError(f"MBIMPACT_NUM_THREADS must be a positive integer, got {text!r}") from None
+        if n < 1:
+            raise ParameterError(f"MBIMPACT_NUM_THREADS must be a positive integer, got {text!r}")
+    return n
+
+
+def set_kernel_threads(n: int | None) -> int | None:
+    """Set how many threads the batches' compiled kernels use (1: the calling thread only; None: back
+    to the default, see :func:`kernel_threads`). Results do not depend on it.
+
+    Returns
+    -------
+    int or None
+        The previous setting: ``set_kernel_threads(previous)`` restores it.
+
+    Raises
+    ------
+    ParameterError
+        ``n`` is not a positive integer or None.
+    """
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+        raise ParameterError(f"the kernel thread count must be a positive integer or None, got {n!r}")
+    previous = _THREADS[0]
+    _THREADS[0] = n
+    return previous
+
+
+#: Rows of a block handed from :func:`over_rows`'s producer to its kernel threads: a few hundred
+#: microseconds of work each, so that the hand-over (~10 µs) is small beside it.
+BLOCK_ROWS = 64
+
+
+@functools.cache
+def _pool(workers: int) -> ThreadPoolExecutor:
+    """A pool of ``workers`` threads, made on first use and kept (threads are started as needed)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    return ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mbimpact-kernel")
+
+
+def over_rows(call: Callable[[int, int], None], rows: int,
+              fill: Callable[[int, int], None] | None = None) -> None:
+    """``call(start, stop)`` over the rows ``[0, rows)``, in contiguous blocks run side by side.
+
+    ``call`` must release the GIL (a numba kernel compiled with ``nogil=True``) and treat each row on
+    its own, writing only that row's outputs. At most :func:`kernel_threads` threads, each with at least
+    :data:`ROWS_PER_THREAD` rows; the calling thread is one of them.
+
+    Parameters
+    ----------
+    call : callable
+        ``call(start, stop)`` treats rows ``start`` to ``stop``.
+    rows : int
+    fill : callable, optional
+        ``fill(start, stop)`` makes the inputs of those rows (Pinocchio's work, which holds the GIL). If
+        given, the calling thread fills block after block of :data:`BLOCK_ROWS` rows while the other
+        threads ``call`` each block filled, then joins them: the two kinds of work overlap.
+
+    An exception of ``fill`` or of any block is raised once every block handed to a thread has
+    finished; after an exception of ``fill``, the blocks no thread has started yet are dropped.
+    """
+    threads = max(1, min(kernel_threads(), rows // ROWS_PER_THREAD))
+    if threads == 1:
+        if fill is not None:
+            fill(0, rows)
+        call(0, rows)
+        return
+    if fill is None:
+        bounds = [rows * k // threads for k in range(threads + 1)]
+        futures = [_pool(threads - 1).submit(call, bounds[k], bounds[k + 1]) for k in range(1, threads)]
+        try:
+            call(bounds[0], bounds[1])
+        finally:  # the other blocks write into the caller's arrays: never return before they end
+            _wait(futures)
+    else:
+        futures = _filled_blocks(call, rows, fill, threads)
+    for future in futures:
+        future.result()
+
+
+def _filled_blocks(call: Callable[[int, int], None], rows: int, fill: Callable[[int, int], None],
+                   threads: int) -> list[Future[None]]:
+    """:func:`over_rows` with a producer: the calling thread fills blocks and queues them, ``threads - 1``
+    workers call them as they come, and the calling thread calls what is left once all are filled."""
+    ready: queue.SimpleQueue[tuple[int, int] | None] = queue.SimpleQueue()
+
+    def work() -> None:
+        while (block := ready.get()) is not None:
+            call(*block)
+
+    futures = [_pool(threads - 1).submit(work) for _ in range(threads - 1)]
+    filled = False
+    try:
+        for start in range(0, rows, BLOCK_ROWS):
+            stop = min(start + BLOCK_ROWS, rows)
+            fill(start, stop)
+            ready.put((start, stop))
+            time.sleep(0)  # lets a waiting worker take the GIL to start the block
+        filled = True
+    finally:
+        for _ in futures:  # each worker stops at its sentinel, after the blocks queued before it
+            ready.put(None)
+        try:
+            while (block := ready.get_nowait()) is not None:
+                if filled:  # else the caller gets fill's exception: the blocks left are dropped
+                    call(*block)
+            ready.put(None)  # a worker's sentinel, given back (every block was queued before it)
+        except queue.Empty:  # the workers took everything
+            pass
+        finally:
+            _wait(futures)
+    return futures
+
+
+def _wait(futures: list[Future[None]]) -> None:
+    from concurrent.futures import wait
+
+    wait(futures)

@@ -333,7 +333,8 @@ class ImpactLaw(ABC):
 
     def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
                              J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
-                             row: Callable[[int], ImpactResult]) -> BatchResult:
+                             row: Callable[[int], ImpactResult],
+                             fill: Callable[[int, int], None] | None = None) -> BatchResult:
         """Impacts at many configurations from Pinocchio's factors of A(q), for a law whose
         :meth:`factored_stack` is True: each row as :func:`mbimpact.impact` would compute it.
 
@@ -346,6 +347,11 @@ class ImpactLaw(ABC):
         row : callable
             ``row(i)`` is row i's :class:`ImpactResult` by :func:`mbimpact.impact`: for the rows the
             law's own route declines (it names their errors and treats their degenerate cases).
+        fill : callable, optional
+            ``fill(a, b)`` fills rows ``a`` to ``b`` of ``A``, ``U`` and ``D`` (Pinocchio's work); given, it
+            is called for each block of rows, in order, before the law reads them, and the law's
+            compiled calls on the rows filled overlap the filling of the next
+            (:func:`mbimpact.common.threads.over_rows`). Without it the stacks are read as given.
         """
         raise NotImplementedError(f"{type(self).__name__} has no route for factored stacks (factored_stack() is False)")
 

@@ -72,6 +72,7 @@ from numpy.typing import NDArray
 
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
+from ..common.threads import over_rows
 from ..common.validation import as_scalar, check_in_range, quiet_overflow
 from ..errors import IntegrationError, ParameterError
 from ..metric.delassus import ContactMetric
@@ -254,7 +255,8 @@ class CoulombLaw(ImpactLaw):
 
     def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
                              J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
-                             row: Callable[[int], ImpactResult]) -> BatchResult:
+                             row: Callable[[int], ImpactResult],
+                             fill: Callable[[int, int], None] | None = None) -> BatchResult:
         """:meth:`ImpactLaw.apply_factored_stack`: :func:`mbimpact.laws.coulomb_kernels.coulomb_batch`, the
         compiled single impact once for all rows; each row's result is that of :func:`mbimpact.impact` to
         the bit. The rows it leaves (what the metric does not prepare, n⁰ out of reach, an integration that
@@ -266,7 +268,13 @@ class CoulombLaw(ImpactLaw):
                                  "row by row")
         kernels = KERNELS.get()
         buffer, status, steps, stats = self._factored_outputs(*V.shape)
-        kernels.coulomb_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, self._law(), buffer, status, steps, stats)
+        law = self._law()
+
+        def rows(a: int, b: int) -> None:
+            kernels.coulomb_batch(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, law, buffer[a:b],
+                                  status[a:b], steps[a:b], stats[a:b])
+
+        over_rows(rows, len(V), fill)
         settled = (status == 0) & (stats[:, 4] == 1.0)
         methods = {"impulse-space"} if settled.any() else set()
         return self._factored_result(A, J, buffer, settled, np.maximum(steps, 1), stats, methods, row)

@@ -1163,7 +1163,7 @@ _BATCH_SIGNATURE = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, types.float64, types
 NOT_PREPARED = -1
 
 
-@njit([_BATCH_SIGNATURE], cache=True, error_model="numpy")
+@njit([_BATCH_SIGNATURE], cache=True, error_model="numpy", nogil=True)
 def coulomb_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
                   R: NDArray[np.float64], degenerate: float, rank_floor: float, law: tuple[float, ...],
                   buf: NDArray[np.float64], status: NDArray[np.int64], steps: NDArray[np.int64],

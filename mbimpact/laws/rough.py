@@ -23,6 +23,7 @@ from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..averaging.refinement import level_plan
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
+from ..common.threads import over_rows
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
 from ..facets.base import FacetLaw, method_label
@@ -363,7 +364,8 @@ class RoughLaw(ImpactLaw):
 
     def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
                              J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
-                             row: Callable[[int], ImpactResult]) -> BatchResult:
+                             row: Callable[[int], ImpactResult],
+                             fill: Callable[[int, int], None] | None = None) -> BatchResult:
         """:meth:`ImpactLaw.apply_factored_stack`: :func:`mbimpact.laws.rough_kernels.cone_batch`, the
         compiled single impact of :meth:`apply_mechanism` once for all rows; each row's result is that of
         :func:`mbimpact.impact` to the bit. The rows it leaves (what the compiled methods do not settle,
@@ -376,7 +378,12 @@ class RoughLaw(ImpactLaw):
                                  "mbimpact.impact_batch applies this law row by row")
         kernels = KERNELS.get()
         buffer, status, nodes, stats = self._factored_outputs(*V.shape)
-        kernels.cone_batch(U, D, J, V, R, DEGENERATE, RANK_FLOOR, *plan, buffer, status, nodes, stats)
+
+        def rows(a: int, b: int) -> None:
+            kernels.cone_batch(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, *plan, buffer[a:b],
+                               status[a:b], nodes[a:b], stats[a:b])
+
+        over_rows(rows, len(V), fill)
         settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
         methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
         return self._factored_result(A, J, buffer, settled, nodes, stats, methods, row)

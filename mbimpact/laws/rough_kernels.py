@@ -137,7 +137,7 @@ def cone_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.fl
                              cone_table, cone_levels, configuration, e, rtol, buf)
 
 
-@njit(_CONE_BATCH, cache=True, error_model="numpy")
+@njit(_CONE_BATCH, cache=True, error_model="numpy", nogil=True)
 def cone_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
                R: NDArray[np.float64], degenerate: float, rank_floor: float, alpha: float,
                graded_table: NDArray[np.float64], graded_levels: int, peaked: float, cone_table: NDArray[np.float64],

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import ParameterError, ShapeError
+from ..errors import ImpactError, ParameterError, ShapeError
 from ..metric.basis import check_dimension, local_basis
 from .mechanism import Mechanism
 
@@ -52,6 +52,25 @@ class Contact(ABC):
         frame : ndarray, shape (d, d)
             Rotation whose last column is n⁰ in the coordinates of ``J``.
         """
+
+    def fill_jacobians(self, mech: Mechanism, Q: NDArray[np.float64], d: int, J: NDArray[np.float64],
+                       R: NDArray[np.float64]) -> int:
+        """:meth:`jacobian` for the rows of a validated ``Q`` (B, nq) in order, into ``J[i]`` (B, d, nv) and
+        ``R[i]`` (B, d, d) (:func:`mbimpact.impact_batch` gathers its stacks so). A contact may
+        override it with a leaner loop that fills the same values.
+
+        Returns
+        -------
+        int
+            The rows filled: B, or the index of the first row whose :meth:`jacobian` raises an
+            :class:`~mbimpact.ImpactError` (which the caller may ask that row again to name).
+        """
+        for i, q in enumerate(Q):
+            try:
+                J[i], R[i] = self.jacobian(mech, q, d)
+            except ImpactError:
+                return i
+        return len(Q)
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,3 +149,14 @@ class PointContact(Contact):
         if d == 2:
             return R[:, [0, 2]].T @ Jp, np.eye(2)
         raise ShapeError(f"contact-space dimension must be 2 or 3, got {d}")
+
+    def fill_jacobians(self, mech: Mechanism, Q: NDArray[np.float64], d: int, J: NDArray[np.float64],
+                       R: NDArray[np.float64]) -> int:
+        """:meth:`Contact.fill_jacobians` in one lean loop of Pinocchio calls for a spatial contact
+        (:meth:`Mechanism.fill_frame_jacobians`): the rows are :meth:`jacobian`'s, to the bit. (A subclass
+        that overrides :meth:`jacobian` gets the base class's loop of its own :meth:`jacobian`.)"""
+        if d.__class__ is not int or d != 3 or type(self).jacobian is not PointContact.jacobian:
+            return super().fill_jacobians(mech, Q, d, J, R)
+        mech.fill_frame_jacobians(Q, mech.frame_id(self.frame), self._offset, J)
+        R[:] = self._basis
+        return len(Q)

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 
 import numpy as np
-import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.threads import single_blas_thread
@@ -100,11 +99,12 @@ def impact_batch(mech: Mechanism, Q: ArrayLike, V: ArrayLike, contact: Contact, 
 
     Notes
     -----
-    Pinocchio's work (J, R and A per row) runs in one lean loop; a law with a closed
+    Pinocchio's work (J, R and A per row) runs in lean loops; a law with a closed
     form (:meth:`ImpactLaw.apply_stack`: Newton's) then treats all rows at once with
     batched LAPACK, and a law whose single impact is one compiled call on Pinocchio's factor
     of A(q) (:meth:`ImpactLaw.apply_factored_stack`: a :class:`RoughLaw` on a :class:`Cone`,
-    the :class:`CoulombLaw`) makes that call once for all rows, each row :func:`impact`'s
+    the :class:`CoulombLaw`) makes that call on blocks of rows, on other threads while the
+    next blocks are gathered (:func:`mbimpact.set_kernel_threads`), each row :func:`impact`'s
     result to the bit. The other laws, and the rows those routes leave, are applied row by
     row as :func:`impact` does (the same errors and warnings, in row order, once ``Q`` and
     ``V`` have passed their checks as arrays: shape, finite).
@@ -135,27 +135,47 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
         _bad_shapes(contact, J0, R0, d, mech.nv)
     B, n = len(Q), mech.nv
     A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
-    # Pinocchio's factor of every A(q) (what the single impacts' kernels read), for a factored stack
-    U, D = np.empty((B if factored else 0, n, n)), np.empty((B if factored else 0, n))
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
-    model, data, unit = mech.model, mech.workspace().data, mech.nq != mech.nv
-    bad: ImpactError | None = None
-    for i, q in enumerate(Q):
-        try:
-            if unit:
+    good, bad = B, None
+    if mech.nq != mech.nv:
+        for i, q in enumerate(Q):
+            try:
                 mech.check_configuration(q)
-            J[i], R[i] = contact.jacobian(mech, q, d)
-        except ImpactError as error:
-            bad = error
-            break
-        if factored:
-            A[i], U[i], D[i] = mech.factor_arrays(q)
-        else:
-            A[i] = pin.crba(model, data, q)  # as Mechanism.mass_matrix, copied into the stack
-    if bad is not None:  # the row-by-row route raises the first bad row's error: an earlier row's, if any
-        for k in range(i):
+            except ImpactError as error:
+                good, bad = i, error
+                break
+    stop = [good]  # the first row whose contact cannot be gathered (good: none)
+
+    def gather(a: int, b: int, U: NDArray[np.float64] | None = None, D: NDArray[np.float64] | None = None) -> None:
+        """J, R and A(q) (and its factor U, D) of rows a to b, or _Unfilled at the first bad one."""
+        end = min(b, stop[0])
+        got = contact.fill_jacobians(mech, Q[a:end], d, J[a:end], R[a:end]) if end > a else 0
+        if a + got < b:
+            stop[0] = a + got
+            raise _Unfilled
+        mech.fill_factors(Q[a:b], A[a:b], None if U is None else U[a:b], None if D is None else D[a:b])
+
+    try:
+        if factored:  # Pinocchio's work block by block, overlapped with the law's compiled calls on the rows gathered
+            U, D = np.empty((B, n, n)), np.empty((B, n))
+            return law.apply_factored_stack(A, U, D, J, V, R, lambda k: impact(mech, Q[k], V[k], contact, law),
+                                            lambda a, b: gather(a, b, U, D))
+        gather(0, B)
+    except _Unfilled:
+        first = stop[0]
+        if first < good:  # that row's contact raised: asked again, to name it
+            try:
+                contact.jacobian(mech, Q[first], d)
+            except ImpactError as error:
+                bad = error
+            else:  # a contact that raised once and not twice: the row-by-row route sorts it out
+                return None
+        assert bad is not None
+        for k in range(first):  # the row-by-row route raises the first bad row's error: an earlier row's, if any
             impact(mech, Q[k], V[k], contact, law)
-        raise bad
-    if factored:
-        return law.apply_factored_stack(A, U, D, J, V, R, lambda k: impact(mech, Q[k], V[k], contact, law))
+        raise bad from None
     return law.apply_stack(A, J, V, R)
+
+
+class _Unfilled(Exception):
+    """A row of the stacks could not be gathered (:func:`_stacked` names it)."""

@@ -388,6 +388,26 @@ class Mechanism:
         local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
         return A, local.U, local.D
 
+    def fill_factors(self, Q: NDArray[np.float64], A: NDArray[np.float64], U: NDArray[np.float64] | None = None,
+                     D: NDArray[np.float64] | None = None) -> None:
+        """:meth:`factor_arrays` for every row of a validated ``Q`` (B, nq) in one lean loop: A(q) into
+        ``A[i]`` (B, nv, nv) and, where ``U`` (B, nv, nv) and ``D`` (B, nv) are given, its factor
+        A = U D Uᵀ into ``U[i]`` and ``D[i]``: each row what :meth:`factor_arrays` returns, to the bit
+        (:func:`mbimpact.impact_batch` gathers its stacks so)."""
+        local = self._local
+        model, data = self.model, getattr(local, "data", None) or self.workspace().data
+        crba = pin.crba
+        if U is None or D is None:
+            for i, q in enumerate(Q):
+                A[i] = crba(model, data, q)
+            return
+        decompose, factor_U, factor_D = pin.cholesky.decompose, data.U, data.D  # views Pinocchio never moves
+        for i, q in enumerate(Q):
+            A[i] = crba(model, data, q)
+            decompose(model, data)
+            U[i], D[i] = factor_U, factor_D
+        local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
+
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
         return pin.computeMinverse(self.model, self.data, self.check_configuration(q)).copy()
@@ -416,6 +436,19 @@ class Mechanism:
         if point is None:
             return J6[:3]  # a view of the fresh (6, nv) array Pinocchio returned: nothing else holds it
         return offset_point_jacobian(J6, data.oMf[fid].rotation @ point)
+
+    def fill_frame_jacobians(self, Q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None,
+                             J: NDArray[np.float64]) -> None:
+        """:meth:`frame_jacobian` for every row of a validated ``Q`` (B, nq) in one lean loop, into
+        ``J[i]`` (B, 3, nv): each row its result, to the bit."""
+        model, data = self.model, getattr(self._local, "data", None) or self.workspace().data
+        jacobian, world = pin.computeFrameJacobian, pin.LOCAL_WORLD_ALIGNED
+        if point is not None or self._dims[1] == 1:  # an offset (read from data.oMf[fid], which each
+            for i, q in enumerate(Q):                # computeFrameJacobian updates), or a (6,) Jacobian
+                J[i] = self.frame_jacobian(q, fid, point)
+            return
+        for i, q in enumerate(Q):
+            J[i] = jacobian(model, data, q, fid, world)[:3]
 
     def frame_position(self, q: ArrayLike, frame: str, point: ArrayLike | None = None) -> NDArray[np.float64]:
         """World position of a point fixed to a frame, shape (3,)."""

@@ -74,7 +74,10 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     assert jit["all compiled kernels (mbimpact.compile_kernels())"] == pytest.approx(sum(modules.values()))
     conf = {r["method"]: r for r in rows if r["part"] == "configurations"}
     laws = ("NewtonLaw", "RoughLaw(Cone)", "CoulombLaw")
-    assert set(conf) == {"loop of Jacobian + pin.impulseDynamics"} | {f"impact_batch, {law}" for law in laws}
+    threads = mbi.kernel_threads()
+    assert set(conf) == ({"loop of Jacobian + pin.impulseDynamics"} | {f"impact_batch, {law}" for law in laws}
+                         | ({f"impact_batch, {law}, 1 kernel thread" for law in laws[1:]} if threads > 1 else set()))
+    assert [float(conf[f"impact_batch, {law}"]["param"]) for law in laws] == [threads] * 3
     # every batch has its goal (≥ 1e5 impacts/s); the cone's and Coulomb's run the single impact's compiled
     # call once for all rows, so they cost about what Newton's does (their order is this machine's noise)
     assert all(float(conf[f"impact_batch, {law}"]["ratio"]) > 0.0 for law in laws)

@@ -6,8 +6,20 @@ import numpy as np
 import pytest
 
 import mbimpact as mbi
+import mbimpact.common.threads as threads_module
 
 from tests.helpers import mechanism
+
+
+@pytest.fixture(params=[1, 3], ids=["one-thread", "three-threads"])
+def kernel_threads(request, monkeypatch):
+    """impact_batch's compiled calls on the calling thread only, or on three threads with blocks of a few
+    rows (so that small batches exercise the hand-over of filled blocks); restored after."""
+    monkeypatch.setattr(threads_module, "ROWS_PER_THREAD", 2)
+    monkeypatch.setattr(threads_module, "BLOCK_ROWS", 3)
+    previous = mbi.set_kernel_threads(request.param)
+    yield request.param
+    mbi.set_kernel_threads(previous)
 
 
 @pytest.mark.parametrize(
@@ -105,7 +117,7 @@ def _assert_rows_are_single_impacts(batch, singles):
     ("ur5", "tool0", [0.0, -1.57, 0.0, -1.57, 0.0, 0.0]),  # elbow straight: the graded rule
     ("solo12", "FL_FOOT", None),  # a foot on the ground (W's eigenvalues 30× apart): the cone's third level
 ])
-def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, hard):
+def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, hard, kernel_threads):
     """A rough cone across configurations runs the single impact's compiled call once for all rows
     (RoughLaw.apply_factored_stack): each row is mbimpact.impact's result at its configuration to the last
     bit, on generic and on strongly anisotropic W, with the methods that settled each row reported."""
@@ -130,7 +142,7 @@ def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, fra
 
 
 @pytest.mark.parametrize("robot, frame", [("ur5", "tool0"), ("solo12", "FL_FOOT"), ("panda", "panda_hand")])
-def test_coulomb_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame):
+def test_coulomb_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, kernel_threads):
     """The Coulomb law across configurations runs its compiled single impact once for all rows
     (CoulombLaw.apply_factored_stack): every row, closed form or integrated turning slip, under each
     restitution hypothesis, is mbimpact.impact's result to the last bit."""
@@ -148,7 +160,7 @@ def test_coulomb_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame)
         assert np.all(batch.energy_loss >= -1e-12 * np.abs(batch.V_minus).max() ** 2)
 
 
-def test_rough_cone_impact_batch_hands_declined_rows_to_impact(rng):
+def test_rough_cone_impact_batch_hands_declined_rows_to_impact(rng, kernel_threads):
     """Rows the compiled call does not settle go through mbimpact.impact, for the rough cone and for the
     Coulomb law: a point that only two joints move (W of rank 2: the general route's range projector), and
     a row that does not approach (named)."""
@@ -172,7 +184,7 @@ def test_rough_cone_impact_batch_hands_declined_rows_to_impact(rng):
             mbi.impact_batch(mech, Q, bad, contact, law)
 
 
-def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng):
+def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng, kernel_threads):
     """The compiled rows whose contact still approaches after the impact (κ < 0) make one
     NoSeparationWarning for the batch, with the single impact's text; a batch whose rows all separate, none."""
     mech = mechanism("ur5")
@@ -196,7 +208,7 @@ def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng
     assert batch.separates.all() and not caught
 
 
-def test_rough_cone_impact_batch_takes_any_memory_layout(rng):
+def test_rough_cone_impact_batch_takes_any_memory_layout(rng, kernel_threads):
     """V and Q as Fortran-ordered, strided, broadcast or read-only arrays: the same rows to the bit."""
     mech = mechanism("ur5")
     contact, law = mbi.PointContact("tool0"), mbi.RoughLaw(mbi.Cone(0.4), 0.5)
@@ -213,7 +225,7 @@ def test_rough_cone_impact_batch_takes_any_memory_layout(rng):
     assert np.array_equal(same.V_plus, np.broadcast_to(reference.V_plus[0], V.shape))
 
 
-def test_rough_cone_impact_batch_raises_and_warns_in_row_order(rng):
+def test_rough_cone_impact_batch_raises_and_warns_in_row_order(rng, kernel_threads):
     """As the row-by-row loop: an earlier row's error comes before a later row's bad quaternion, and a
     NoSeparationWarning of an earlier row before a later row's error (a filter that raises it sees it first)."""
     solo = mechanism("solo12")
@@ -236,6 +248,40 @@ def test_rough_cone_impact_batch_raises_and_warns_in_row_order(rng):
         warnings.simplefilter("always")
         mbi.impact_batch(ur5, Q, V, mbi.PointContact("tool0"), law)
     assert [type(w.message) for w in caught] == [mbi.NoSeparationWarning]
+
+
+class _Picky(mbi.PointContact):
+    """A contact that finds no contact at configurations whose first joint is past 3 rad."""
+
+    def jacobian(self, mech, q, d=3):
+        if q[0] > 3.0:
+            raise mbi.GeometryError(f"no contact at q[0] = {q[0]}")
+        return super().jacobian(mech, q, d)
+
+
+@pytest.mark.parametrize("law", [mbi.RoughLaw(mbi.Cone(0.4), 0.5), mbi.CoulombLaw(0.5, 0.3), mbi.NewtonLaw(0.5)],
+                         ids=repr)
+def test_impact_batch_names_a_later_rows_contact_error_in_row_order(rng, law, kernel_threads):
+    """A contact that raises at a row of a later block (the compiled calls already under way on the rows
+    before it): the batch raises as the row-by-row loop does, an earlier row's error first, and a
+    subclass that overrides jacobian is asked at every row (not PointContact's lean loop)."""
+    mech = mechanism("ur5")
+    Q = np.stack([mech.random_configuration(rng) for _ in range(30)])
+    Q[:, 0] = np.clip(Q[:, 0], -3.0, 3.0)
+    contact = _Picky("tool0")
+    V = _approaching_rows(mech, Q, contact, rng)
+    batch = mbi.impact_batch(mech, Q, V, contact, law)
+    singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
+    if law.factored_stack():
+        _assert_rows_are_single_impacts(batch, singles)
+    else:  # Newton's vectorised closed form: to rounding
+        np.testing.assert_allclose(batch.V_plus, [r.v_plus for r in singles], rtol=1e-11, atol=1e-11)
+    Q[17, 0] = 3.1
+    with pytest.raises(mbi.GeometryError, match="q\\[0\\] = 3.1"):
+        mbi.impact_batch(mech, Q, V, contact, law)
+    V[11] = -V[11]  # an earlier row does not approach: its error comes first
+    with pytest.raises(mbi.NoImpactError, match="does not approach"):
+        mbi.impact_batch(mech, Q, V, contact, law)
 
 
 def test_a_law_without_a_factored_route_says_so(rng):

@@ -171,3 +171,35 @@ def test_metric_route_is_as_accurate_as_impulse_dynamics_on_an_ill_conditioned_r
     expected = pin.impulseDynamics(mech.model, mech.model.createData(), q, v, (n0 @ J)[None, :], 0.0, 0.0).copy()
     res = mbi.impact(mech, q, v, contact, mbi.RoughLaw(mbi.Smooth(), 0.0))  # the general (metric) route
     assert np.abs(res.v_plus - expected).max() < 1e-13 * (np.abs(expected).max() + np.abs(v).max())
+
+
+def _one_joint_mechanism():
+    """The double pendulum with its first joint locked: nv = 1 (Pinocchio hands back a (6,) Jacobian)."""
+    full = mechanism("double_pendulum").model
+    return mbi.Mechanism(pin.buildReducedModel(full, [1], pin.neutral(full)), "one_joint")
+
+
+@given(st.sampled_from(ROBOTS + ["one joint"]), seeds)
+def test_stack_fillers_are_the_single_calls_to_the_bit(name, seed):
+    """What impact_batch gathers in its lean loops (PointContact.fill_jacobians, Mechanism.fill_factors) is,
+    row by row, what the single impact reads: the contact's jacobian, at the frame origin or an offset, in
+    3-D and 2-D, and A(q) with Pinocchio's factor, to the bit."""
+    mech = _one_joint_mechanism() if name == "one joint" else mechanism(name)
+    rng = np.random.default_rng(seed)
+    Q = np.stack([mech.random_configuration(rng) for _ in range(4)])
+    B, n = Q.shape[0], mech.nv
+    for point in ([0.0, 0.0, 0.0], [0.1, -0.05, 0.2]):
+        contact = mbi.PointContact(last_frame(mech), point=point)
+        for d in (3, 2):
+            J, R = np.empty((B, d, n)), np.empty((B, d, d))
+            assert contact.fill_jacobians(mech, Q, d, J, R) == B
+            for i, q in enumerate(Q):
+                J1, R1 = contact.jacobian(mech, q, d)
+                assert np.array_equal(J[i], J1) and np.array_equal(R[i], R1)
+    A, U, D, A_only = np.empty((B, n, n)), np.empty((B, n, n)), np.empty((B, n)), np.empty((B, n, n))
+    mech.fill_factors(Q, A, U, D)
+    mech.fill_factors(Q, A_only)
+    for i, q in enumerate(Q):
+        A1, U1, D1 = mech.factor_arrays(q)
+        assert np.array_equal(A[i], A1) and np.array_equal(U[i], U1) and np.array_equal(D[i], D1)
+        assert np.array_equal(A_only[i], A1)

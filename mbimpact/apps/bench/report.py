@@ -51,7 +51,7 @@ def format_report(rows: list[BenchRow]) -> str:
                        for r in part("batch")])
     if part("configurations"):
         out += _table("## Batches across configurations (impact_batch, one velocity per configuration)",
-                      "| case | call | rows | impacts/s | µs/impact | time / Pinocchio loop |",
+                      "| case | call | threads | impacts/s | µs/impact | time / Pinocchio loop |",
                       [f"| {r.case} | {r.method} | {r.param:g} | {1.0 / r.seconds:.3g} | {r.seconds * 1e6:.2f} | "
                        f"{r.ratio:.2f} |" for r in part("configurations")])
     if part("coulomb"):

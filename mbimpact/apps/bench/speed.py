@@ -2,7 +2,8 @@
 Coulomb law against Pinocchio's conic solvers, the package import, and the table of goals.
 
 1. ``configurations`` — :func:`mbimpact.impact_batch` over distinct configurations of the UR5
-   (one velocity each) against a loop of the frame Jacobian plus ``pin.impulseDynamics``.
+   (one velocity each) against a loop of the frame Jacobian plus ``pin.impulseDynamics``; the rough
+   cone and the Coulomb law also with their compiled calls on the calling thread alone.
 2. ``coulomb`` — one plastic Coulomb impact of the UR5, sticking and sliding, by
    :class:`~mbimpact.CoulombLaw` against Pinocchio's PGS and ADMM solvers on the same q, v (each
    from q: Jacobian, Delassus matrix, solve), with the impulses' agreement; and the rate of
@@ -36,6 +37,7 @@ from ...laws import CoulombLaw, NewtonLaw, RoughLaw
 from ...mechanism import Mechanism, PointContact, impact, impact_batch
 from ...roughness import Cone
 from ..progress import Progress
+from ...common.threads import kernel_threads, set_kernel_threads
 from .common import BenchRow, per_call_together
 
 __all__ = ["configurations", "coulomb", "threads", "batch_rates", "import_time", "goals", "Goal", "conic_problem"]
@@ -67,17 +69,26 @@ def configurations(quick: bool, progress: Progress) -> list[BenchRow]:
             V[i] -= (1.0 + jz @ V[i]) * jz / max(float(jz @ jz), 1e-12)
     fid = mech.frame_id(frame)
     t_pin = min(_pin_loop(mech, fid, Q, V) for _ in range(2))
+    threads = kernel_threads()
     case = f"ur5 (n={mech.nv}), {size} configurations"
-    rows = [BenchRow("configurations", case, "loop of Jacobian + pin.impulseDynamics", size, 0.0, t_pin, 1.0)]
-    for label, law, count in (("impact_batch, NewtonLaw", NewtonLaw(E), size),
-                              ("impact_batch, RoughLaw(Cone)", RoughLaw(Cone(0.3), E), size),
-                              ("impact_batch, CoulombLaw", CoulombLaw(E, 0.3), size)):
-        passes = []
-        for _ in range(2):
-            start = time.perf_counter()
-            impact_batch(mech, Q[:count], V[:count], contact, law)
-            passes.append((time.perf_counter() - start) / count)
-        rows.append(BenchRow("configurations", case, label, count, 0.0, min(passes), min(passes) / t_pin))
+    rows = [BenchRow("configurations", case, "loop of Jacobian + pin.impulseDynamics", 1, 0.0, t_pin, 1.0)]
+    # the factored laws' compiled calls on the kernel threads (overlapping Pinocchio's work), and on the
+    # calling thread alone: what the threads add
+    for label, law, counts in (("impact_batch, NewtonLaw", NewtonLaw(E), (threads,)),
+                               ("impact_batch, RoughLaw(Cone)", RoughLaw(Cone(0.3), E), (threads, 1)),
+                               ("impact_batch, CoulombLaw", CoulombLaw(E, 0.3), (threads, 1))):
+        for count in dict.fromkeys(counts):
+            previous = set_kernel_threads(count)
+            try:
+                passes = []
+                for _ in range(2):
+                    start = time.perf_counter()
+                    impact_batch(mech, Q, V, contact, law)
+                    passes.append((time.perf_counter() - start) / size)
+            finally:
+                set_kernel_threads(previous)
+            method = label if count == threads else f"{label}, {count} kernel thread"
+            rows.append(BenchRow("configurations", case, method, count, 0.0, min(passes), min(passes) / t_pin))
     progress.step("configurations")
     return rows
 
