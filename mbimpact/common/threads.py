@@ -22,6 +22,7 @@ import contextlib
 import functools
 import os
 import queue
+import threading
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
@@ -119,12 +120,25 @@ def set_kernel_threads(n: int | None) -> int | None:
 BLOCK_ROWS = 64
 
 
-@functools.cache
+_POOL_LOCK = threading.Lock()
+_POOL: list[Any] = [None, 0, 0]  # the executor, its worker count and the process that made it
+
+
 def _pool(workers: int) -> ThreadPoolExecutor:
-    """A pool of ``workers`` threads, made on first use and kept (threads are started as needed)."""
+    """The process's pool of kernel threads, with at least ``workers`` threads (started as needed).
+
+    One pool per process: made on first use, made again in a forked child (whose copy has no threads)
+    and when more threads are asked for (the smaller pool is shut down once its work ends)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    return ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mbimpact-kernel")
+    with _POOL_LOCK:
+        pool, size, pid = _POOL
+        if pool is None or pid != os.getpid() or size < workers:
+            if pool is not None and pid == os.getpid():
+                pool.shutdown(wait=False)
+            pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mbimpact-kernel")
+            _POOL[:] = [pool, workers, os.getpid()]
+        return pool
 
 
 def over_rows(call: Callable[[int, int], None], rows: int,
@@ -133,7 +147,9 @@ def over_rows(call: Callable[[int, int], None], rows: int,
 
     ``call`` must release the GIL (a numba kernel compiled with ``nogil=True``) and treat each row on
     its own, writing only that row's outputs. At most :func:`kernel_threads` threads, each with at least
-    :data:`ROWS_PER_THREAD` rows; the calling thread is one of them.
+    :data:`ROWS_PER_THREAD` rows; the calling thread is one of them, and takes every block the others
+    have not started (so a call never waits for threads busy elsewhere: another batch, an enclosing
+    one, or a pool that can no longer start threads at interpreter exit).
 
     Parameters
     ----------
@@ -154,51 +170,57 @@ def over_rows(call: Callable[[int, int], None], rows: int,
             fill(0, rows)
         call(0, rows)
         return
-    if fill is None:
-        bounds = [rows * k // threads for k in range(threads + 1)]
-        futures = [_pool(threads - 1).submit(call, bounds[k], bounds[k + 1]) for k in range(1, threads)]
-        try:
-            call(bounds[0], bounds[1])
-        finally:  # the other blocks write into the caller's arrays: never return before they end
-            _wait(futures)
-    else:
-        futures = _filled_blocks(call, rows, fill, threads)
-    for future in futures:
-        future.result()
-
-
-def _filled_blocks(call: Callable[[int, int], None], rows: int, fill: Callable[[int, int], None],
-                   threads: int) -> list[Future[None]]:
-    """:func:`over_rows` with a producer: the calling thread fills blocks and queues them, ``threads - 1``
-    workers call them as they come, and the calling thread calls what is left once all are filled."""
+    size = BLOCK_ROWS if fill is not None else -(-rows // threads)
     ready: queue.SimpleQueue[tuple[int, int] | None] = queue.SimpleQueue()
 
     def work() -> None:
         while (block := ready.get()) is not None:
             call(*block)
 
-    futures = [_pool(threads - 1).submit(work) for _ in range(threads - 1)]
+    helpers: list[Future[None]] = []
     filled = False
     try:
-        for start in range(0, rows, BLOCK_ROWS):
-            stop = min(start + BLOCK_ROWS, rows)
-            fill(start, stop)
+        pool = _pool(kernel_threads() - 1)
+        for _ in range(threads - 1):
+            helpers.append(pool.submit(work))
+    except RuntimeError:  # no new threads (interpreter exit): the calling thread does it all
+        pass
+    try:
+        for start in range(0, rows, size):
+            stop = min(start + size, rows)
+            if fill is not None:
+                fill(start, stop)
             ready.put((start, stop))
-            time.sleep(0)  # lets a waiting worker take the GIL to start the block
+            time.sleep(0)  # lets a waiting helper take the GIL to start the block
         filled = True
     finally:
-        for _ in futures:  # each worker stops at its sentinel, after the blocks queued before it
+        for _ in helpers:  # each helper stops at its sentinel, after the blocks queued before it
             ready.put(None)
         try:
             while (block := ready.get_nowait()) is not None:
                 if filled:  # else the caller gets fill's exception: the blocks left are dropped
                     call(*block)
-            ready.put(None)  # a worker's sentinel, given back (every block was queued before it)
-        except queue.Empty:  # the workers took everything
+            ready.put(None)  # a helper's sentinel, given back (every block was queued before it)
+        except queue.Empty:  # the helpers took everything
             pass
         finally:
-            _wait(futures)
-    return futures
+            # a helper that has not started has nothing left to do: cancelled, and not waited for (wait()
+            # would wait until the pool's thread, busy elsewhere, took it off its queue)
+            _wait([helper for helper in helpers if not helper.cancel()])
+    for helper in helpers:
+        if not helper.cancelled():
+            helper.result()
+
+
+def _forget_in_child() -> None:
+    """After a fork: the child has none of the parent's threads, nor the batches they ran."""
+    global _POOL_LOCK
+    _POOL_LOCK = threading.Lock()
+    _POOL[:] = [None, 0, 0]
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_in_child)
 
 
 def _wait(futures: list[Future[None]]) -> None:

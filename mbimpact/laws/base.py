@@ -361,7 +361,8 @@ class ImpactLaw(ABC):
         """What a factored stack's kernel fills for B rows of n velocities: each row's single-impact buffer
         (B, 6n + 33) (:func:`mbimpact.metric.kernels.single_size`), its status and node count (B,), and its
         error estimate, |u₋|, tr W, n⁰ · u₊ and finiteness (B, 5) (:meth:`_factored_result` reads them)."""
-        return np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), np.empty((B, 5))
+        # stats zeroed: a row the kernel leaves (not prepared) is read too, and must hold no NaN
+        return np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), np.zeros((B, 5))
 
     def _factored_result(self, A: NDArray[np.float64], J: NDArray[np.float64], buffer: NDArray[np.float64],
                          settled: NDArray[np.bool_], nodes: NDArray[np.int64], stats: NDArray[np.float64],

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import ImpactError, ParameterError, ShapeError
+from ..errors import ParameterError, ShapeError
 from ..metric.basis import check_dimension, local_basis
 from .mechanism import Mechanism
 
@@ -62,14 +62,18 @@ class Contact(ABC):
         Returns
         -------
         int
-            The rows filled: B, or the index of the first row whose :meth:`jacobian` raises an
-            :class:`~mbimpact.ImpactError` (which the caller may ask that row again to name).
+            The rows filled: B, or the index of the first row whose :meth:`jacobian` raises or returns
+            arrays of other shapes than ``J[i]`` and ``R[i]`` (the caller asks that row again, in the
+            place the row-by-row route would, to name it).
         """
         for i, q in enumerate(Q):
             try:
-                J[i], R[i] = self.jacobian(mech, q, d)
-            except ImpactError:
+                Ji, Ri = self.jacobian(mech, q, d)
+            except Exception:  # noqa: BLE001 — any error is the row's, raised by the caller in row order
                 return i
+            if Ji.shape != J.shape[1:] or Ri.shape != R.shape[1:]:
+                return i
+            J[i], R[i] = Ji, Ri
         return len(Q)
 
 

@@ -129,22 +129,17 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
     factored = law.factored_stack()
     if not factored and type(law).apply_stack is ImpactLaw.apply_stack:
         return None
-    d = law.dim or 3
-    J0, R0 = contact.jacobian(mech, mech.check_configuration(Q[0]), d)
-    if J0.shape != (d, mech.nv) or R0.shape != (d, d):
-        _bad_shapes(contact, J0, R0, d, mech.nv)
-    B, n = len(Q), mech.nv
-    A, J, R = np.empty((B, n, n)), np.empty((B,) + J0.shape), np.empty((B,) + R0.shape)
+    d, B, n = law.dim or 3, len(Q), mech.nv
+    A, J, R = np.empty((B, n, n)), np.empty((B, d, n)), np.empty((B, d, d))
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
-    good, bad = B, None
+    stop = [B]  # the first row that cannot be gathered (B: none)
     if mech.nq != mech.nv:
         for i, q in enumerate(Q):
             try:
                 mech.check_configuration(q)
-            except ImpactError as error:
-                good, bad = i, error
+            except ImpactError:
+                stop[0] = i
                 break
-    stop = [good]  # the first row whose contact cannot be gathered (good: none)
 
     def gather(a: int, b: int, U: NDArray[np.float64] | None = None, D: NDArray[np.float64] | None = None) -> None:
         """J, R and A(q) (and its factor U, D) of rows a to b, or _Unfilled at the first bad one."""
@@ -161,21 +156,10 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
             return law.apply_factored_stack(A, U, D, J, V, R, lambda k: impact(mech, Q[k], V[k], contact, law),
                                             lambda a, b: gather(a, b, U, D))
         gather(0, B)
-    except _Unfilled:
-        first = stop[0]
-        if first < good:  # that row's contact raised: asked again, to name it
-            try:
-                contact.jacobian(mech, Q[first], d)
-            except ImpactError as error:
-                bad = error
-            else:  # a contact that raised once and not twice: the row-by-row route sorts it out
-                return None
-        assert bad is not None
-        for k in range(first):  # the row-by-row route raises the first bad row's error: an earlier row's, if any
-            impact(mech, Q[k], V[k], contact, law)
-        raise bad from None
+    except _Unfilled:  # a bad configuration, or a contact that raises or gives arrays of other shapes:
+        return None    # the row-by-row route raises the first bad row's error, in row order
     return law.apply_stack(A, J, V, R)
 
 
 class _Unfilled(Exception):
-    """A row of the stacks could not be gathered (:func:`_stacked` names it)."""
+    """A row of the stacks could not be gathered (the row-by-row route names it)."""

@@ -180,3 +180,87 @@ def test_impact_batch_is_the_same_on_any_number_of_threads(small_blocks):
         two = mbi.impact_batch(mech, Q, V, contact, law)
         for name in ("V_plus", "P", "U_plus", "A", "J", "error_estimate"):
             assert np.array_equal(getattr(one, name), getattr(two, name)), name
+
+
+def _run_in_thread(target, timeout=60.0):
+    """target() on a daemon thread; True if it returned within ``timeout`` seconds."""
+    worker = threading.Thread(target=target, daemon=True)
+    worker.start()
+    worker.join(timeout)
+    return not worker.is_alive()
+
+
+def test_over_rows_nested_in_a_fill_does_not_wait_for_busy_threads(small_blocks):
+    """A batch started inside another's fill (a contact whose jacobian runs a batch) finds the pool's
+    threads busy with the outer batch: it does its blocks itself and returns."""
+    mbi.set_kernel_threads(2)
+    inner_seen, outer_seen = np.zeros(40, int), np.zeros(60, int)
+
+    def inner(a, b):
+        inner_seen[a:b] += 1
+
+    def outer_fill(a, b):
+        if a == 9:
+            threads.over_rows(inner, 40, lambda a, b: None)
+
+    def outer(a, b):
+        time.sleep(0.001)
+        outer_seen[a:b] += 1
+
+    assert _run_in_thread(lambda: threads.over_rows(outer, 60, outer_fill))
+    assert np.all(inner_seen == 1) and np.all(outer_seen == 1)
+
+
+def test_over_rows_in_a_forked_child(small_blocks):
+    """A child forked after the parent's threads ran gets threads of its own (its copy of the pool has
+    none), and its batches complete."""
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork on this platform")
+    mbi.set_kernel_threads(2)
+    threads.over_rows(lambda a, b: time.sleep(0.001), 40, lambda a, b: None)  # the parent's pool at work
+    context = multiprocessing.get_context("fork")
+    child = context.Process(target=threads.over_rows, args=(_slow_rows, 40, _no_fill))
+    child.start()
+    child.join(60)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0
+
+
+def _slow_rows(a, b):
+    time.sleep(0.001)
+
+
+def _no_fill(a, b):
+    pass
+
+
+def test_over_rows_at_interpreter_exit():
+    """From an atexit handler (the pool can no longer start threads) the calling thread does the rows."""
+    import subprocess
+    import sys
+
+    code = ("import atexit, numpy as np, mbimpact as mbi\n"
+            "from mbimpact.common import threads\n"
+            "threads.ROWS_PER_THREAD, threads.BLOCK_ROWS = 2, 3\n"
+            "mbi.set_kernel_threads(2)\n"
+            "seen = np.zeros(30, int)\n"
+            "def call(a, b): seen[a:b] += 1\n"
+            "@atexit.register\n"
+            "def at_exit():\n"
+            "    threads.over_rows(call, 30, lambda a, b: None)\n"
+            "    print('rows', int(seen.sum()), 'once', bool(np.all(seen == 1)))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "rows 30 once True", out.stderr
+
+
+def test_kernel_threads_are_one_pool(small_blocks):
+    """Batches of every size share the process's pool: at most kernel_threads() − 1 threads are kept."""
+    mbi.set_kernel_threads(4)
+    for rows in range(4, 12):  # 2, 3 and 4 threads a call (ROWS_PER_THREAD = 2)
+        threads.over_rows(lambda a, b: None, rows, lambda a, b: None)
+    kept = [t for t in threading.enumerate() if t.name.startswith("mbimpact-kernel")]
+    assert len(kept) <= 3

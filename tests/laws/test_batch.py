@@ -284,6 +284,61 @@ def test_impact_batch_names_a_later_rows_contact_error_in_row_order(rng, law, ke
         mbi.impact_batch(mech, Q, V, contact, law)
 
 
+class _Buggy(mbi.PointContact):
+    """A contact with a bug past q[0] = 3 rad: a ValueError (not an ImpactError), or a Jacobian of shape (nv,)
+    that numpy would broadcast into a (3, nv) row."""
+
+    kind = "raise"
+
+    def jacobian(self, mech, q, d=3):
+        J, R = super().jacobian(mech, q, d)
+        if q[0] > 3.0:
+            if self.kind == "raise":
+                raise ValueError(f"bug at q[0] = {q[0]}")
+            return J[2].copy(), R
+        return J, R
+
+
+@pytest.mark.parametrize("law", [mbi.RoughLaw(mbi.Cone(0.4), 0.5), mbi.CoulombLaw(0.5, 0.3), mbi.NewtonLaw(0.5)],
+                         ids=repr)
+def test_impact_batch_meets_a_buggy_contact_where_the_loop_does(rng, law, kernel_threads):
+    """A contact's own error at a later row comes after an earlier row's NoImpactError, as in the loop of
+    impact; a Jacobian of the wrong shape at a later row is named (ShapeError), never broadcast."""
+    mech = mechanism("ur5")
+    Q = np.stack([mech.random_configuration(rng) for _ in range(30)])
+    Q[:, 0] = np.clip(Q[:, 0], -3.0, 3.0)
+    V = _approaching_rows(mech, Q, mbi.PointContact("tool0"), rng)
+    Q[20, 0] = 3.1
+    raising, shaped = _Buggy("tool0"), _Buggy("tool0")
+    object.__setattr__(shaped, "kind", "shape")
+    with pytest.raises(ValueError, match="bug at q"):
+        mbi.impact_batch(mech, Q, V, raising, law)
+    with pytest.raises(mbi.ShapeError, match="must return J of shape"):
+        mbi.impact_batch(mech, Q, V, shaped, law)
+    V[6] = -V[6]
+    for contact in (raising, shaped):
+        with pytest.raises(mbi.NoImpactError, match="does not approach"):
+            mbi.impact_batch(mech, Q, V, contact, law)
+
+
+def test_impact_batch_reads_no_garbage_of_rows_the_kernel_leaves(rng, kernel_threads):
+    """Rows the compiled call does not prepare (a contact point the mechanism cannot move: J = 0) leave
+    their statistics unwritten; the batch raises their NoImpactError, with no RuntimeWarning from reading
+    stale memory even under np.seterr(invalid="raise")."""
+    mech = mechanism("ur5")
+    contact = mbi.PointContact("shoulder_link")  # on joint 1's axis: J = 0
+    Q = np.stack([mech.random_configuration(rng) for _ in range(300)])
+    V = rng.normal(size=(300, mech.nv))
+    signalling = np.array([0x7FF0000000000001], np.uint64).view(np.float64)[0]
+    for law in (mbi.CoulombLaw(0.5, 0.3), mbi.RoughLaw(mbi.Cone(0.4), 0.5)):
+        junk = np.full((300, 5), signalling)  # freed memory the batch's next allocation may reuse
+        del junk
+        with np.errstate(invalid="raise"), warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(mbi.NoImpactError, match="does not approach"):
+                mbi.impact_batch(mech, Q, V, contact, law)
+
+
 def test_a_law_without_a_factored_route_says_so(rng):
     """Only a law whose factored_stack() is True takes apply_factored_stack; the others say what has one."""
     mech = mechanism("ur5")
