@@ -10,9 +10,9 @@ the call and restored after, so the user's own setting is untouched. The BLAS li
 are those of numpy and scipy (found once, on the first batch).
 
 The compiled kernels of :func:`mbimpact.impact_batch` treat each row on its own and release
-the GIL: :func:`over_rows` splits their rows into one contiguous block per thread. Every row
-is computed by the same arithmetic on whichever thread, so results do not depend on the
-thread count. It is that of the CPUs the process may run on, or ``MBIMPACT_NUM_THREADS``, or
+the GIL: :func:`over_rows` hands blocks of rows to a pool of threads as the calling thread
+gathers them (Pinocchio's work, which holds the GIL). Every row is computed by the same
+arithmetic on whichever thread, so results do not depend on the thread count. It is that of the CPUs the process may run on, or ``MBIMPACT_NUM_THREADS``, or
 what :func:`set_kernel_threads` sets.
 """
 

@@ -63,8 +63,8 @@ class Contact(ABC):
         -------
         int
             The rows filled: B, or the index of the first row whose :meth:`jacobian` raises or returns
-            arrays of other shapes than ``J[i]`` and ``R[i]`` (the caller asks that row again, in the
-            place the row-by-row route would, to name it).
+            arrays of other shapes than ``J[i]`` and ``R[i]`` (:func:`mbimpact.impact_batch` then takes
+            the row-by-row route, which raises that row's error in row order).
         """
         for i, q in enumerate(Q):
             try:
