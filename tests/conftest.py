@@ -33,3 +33,16 @@ def compiled_kernels() -> None:
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)
+
+
+@pytest.fixture
+def small_blocks(monkeypatch):
+    """Kernel-thread blocks of a few rows, so that short row counts are split between threads and blocks;
+    the kernel thread setting restored after."""
+    from mbimpact.common import threads
+
+    monkeypatch.setattr(threads, "ROWS_PER_THREAD", 2)
+    monkeypatch.setattr(threads, "BLOCK_ROWS", 3)
+    previous = mbi.set_kernel_threads(None)
+    yield
+    mbi.set_kernel_threads(previous)

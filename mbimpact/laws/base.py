@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import DEGENERATE
-from ..common.threads import single_blas_thread
+from ..common.threads import over_rows, single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
 from ..metric.basis import local_basis
@@ -355,14 +355,27 @@ class ImpactLaw(ABC):
         """
         raise NotImplementedError(f"{type(self).__name__} has no route for factored stacks (factored_stack() is False)")
 
-    @staticmethod
-    def _factored_outputs(B: int, n: int) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64],
-                                                   NDArray[np.float64]]:
-        """What a factored stack's kernel fills for B rows of n velocities: each row's single-impact buffer
-        (B, 6n + 33) (:func:`mbimpact.metric.kernels.single_size`), its status and node count (B,), and its
-        error estimate, |u₋|, tr W, n⁰ · u₊ and finiteness (B, 5) (:meth:`_factored_result` reads them)."""
+    def _factored_run(self, kernel: Callable[..., None], args: tuple[object, ...], U: NDArray[np.float64],
+                      D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
+                      fill: Callable[[int, int], None] | None
+                      ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+        """A factored stack's kernel, ``kernel(U, D, J, V, R, DEGENERATE, RANK_FLOOR, *args, buffer, status,
+        nodes, stats)`` on blocks of rows (on the kernel threads, overlapping ``fill``:
+        :func:`mbimpact.common.threads.over_rows`), and what it fills for B rows of n velocities: each row's
+        single-impact buffer (B, 6n + 33) (:func:`mbimpact.metric.kernels.single_size`), its status and node
+        count (B,), and its error estimate, |u₋|, tr W, n⁰ · u₊ and finiteness (B, 5) (:meth:`_factored_result`
+        reads them)."""
+        B, n = V.shape
         # stats zeroed: a row the kernel leaves (not prepared) is read too, and must hold no NaN
-        return np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), np.zeros((B, 5))
+        buffer, status, nodes, stats = np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), \
+            np.zeros((B, 5))
+
+        def rows(a: int, b: int) -> None:
+            kernel(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, *args, buffer[a:b], status[a:b],
+                   nodes[a:b], stats[a:b])
+
+        over_rows(rows, B, fill)
+        return buffer, status, nodes, stats
 
     def _factored_result(self, A: NDArray[np.float64], J: NDArray[np.float64], buffer: NDArray[np.float64],
                          settled: NDArray[np.bool_], nodes: NDArray[np.int64], stats: NDArray[np.float64],

@@ -72,13 +72,12 @@ from numpy.typing import NDArray
 
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
-from ..common.threads import over_rows
 from ..common.validation import as_scalar, check_in_range, quiet_overflow
 from ..errors import IntegrationError, ParameterError
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from ..results.quantities import SEPARATION_RTOL
-from .base import RANK_FLOOR, ImpactLaw
+from .base import ImpactLaw
 from .restitution import restitution_from
 
 __all__ = ["CoulombLaw", "KERNELS", "compile_kernels"]
@@ -267,14 +266,7 @@ class CoulombLaw(ImpactLaw):
                                  "compiled route for batches across configurations; mbimpact.impact_batch applies it "
                                  "row by row")
         kernels = KERNELS.get()
-        buffer, status, steps, stats = self._factored_outputs(*V.shape)
-        law = self._law()
-
-        def rows(a: int, b: int) -> None:
-            kernels.coulomb_batch(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, law, buffer[a:b],
-                                  status[a:b], steps[a:b], stats[a:b])
-
-        over_rows(rows, len(V), fill)
+        buffer, status, steps, stats = self._factored_run(kernels.coulomb_batch, (self._law(),), U, D, J, V, R, fill)
         settled = (status == 0) & (stats[:, 4] == 1.0)
         methods = {"impulse-space"} if settled.any() else set()
         return self._factored_result(A, J, buffer, settled, np.maximum(steps, 1), stats, methods, row)

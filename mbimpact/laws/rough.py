@@ -23,7 +23,6 @@ from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
 from ..averaging.refinement import level_plan
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
-from ..common.threads import over_rows
 from ..common.validation import as_count, as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
 from ..facets.base import FacetLaw, method_label
@@ -377,13 +376,7 @@ class RoughLaw(ImpactLaw):
                                  "is False: a Cone by method='auto' with Newton facets has one); "
                                  "mbimpact.impact_batch applies this law row by row")
         kernels = KERNELS.get()
-        buffer, status, nodes, stats = self._factored_outputs(*V.shape)
-
-        def rows(a: int, b: int) -> None:
-            kernels.cone_batch(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, *plan, buffer[a:b],
-                               status[a:b], nodes[a:b], stats[a:b])
-
-        over_rows(rows, len(V), fill)
+        buffer, status, nodes, stats = self._factored_run(kernels.cone_batch, plan, U, D, J, V, R, fill)
         settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
         methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
         return self._factored_result(A, J, buffer, settled, nodes, stats, methods, row)

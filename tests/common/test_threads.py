@@ -61,16 +61,6 @@ def test_a_batch_runs_blas_on_one_thread_and_restores_the_setting(ur5_batch, row
 
 
 # ---------------------------------------------------------------- the compiled kernels' threads
-@pytest.fixture
-def small_blocks(monkeypatch):
-    """Blocks of a few rows, so that short row counts are split between threads; the setting restored after."""
-    monkeypatch.setattr(threads, "ROWS_PER_THREAD", 2)
-    monkeypatch.setattr(threads, "BLOCK_ROWS", 3)
-    previous = mbi.set_kernel_threads(None)
-    yield
-    mbi.set_kernel_threads(previous)
-
-
 @pytest.mark.parametrize("count", [1, 2, 4])
 @pytest.mark.parametrize("rows", [0, 1, 5, 40])
 @pytest.mark.parametrize("with_fill", [False, True])

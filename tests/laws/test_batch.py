@@ -6,20 +6,16 @@ import numpy as np
 import pytest
 
 import mbimpact as mbi
-import mbimpact.common.threads as threads_module
 
 from tests.helpers import mechanism
 
 
 @pytest.fixture(params=[1, 3], ids=["one-thread", "three-threads"])
-def kernel_threads(request, monkeypatch):
+def kernel_threads(request, small_blocks):
     """impact_batch's compiled calls on the calling thread only, or on three threads with blocks of a few
-    rows (so that small batches exercise the hand-over of filled blocks); restored after."""
-    monkeypatch.setattr(threads_module, "ROWS_PER_THREAD", 2)
-    monkeypatch.setattr(threads_module, "BLOCK_ROWS", 3)
-    previous = mbi.set_kernel_threads(request.param)
-    yield request.param
-    mbi.set_kernel_threads(previous)
+    rows (so that small batches exercise the hand-over of filled blocks)."""
+    mbi.set_kernel_threads(request.param)
+    return request.param
 
 
 @pytest.mark.parametrize(
