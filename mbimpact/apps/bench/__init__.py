@@ -30,10 +30,10 @@ from .geometry import gap_queries
 from .laws import BATCH_ROBOTS, OVERHEAD_ROBOTS, accuracy, batch, compliant, overhead
 from .report import format_report, plot, write_csv
 from .scenes import QUICK_SCENES, scene_throughput
-from .speed import configurations, coulomb, goals, import_time, threads
+from .speed import CACHED_IMPORT, configurations, coulomb, goals, import_time, threads
 
 __all__ = ["BenchRow", "PARTS", "run_bench", "format_report", "write_csv", "plot", "machine_summary",
-           "moving_frame", "per_call", "goals"]
+           "moving_frame", "per_call", "goals", "CACHED_IMPORT"]
 
 #: The parts of the bench, in the order they run.
 PARTS = ("accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads", "import", "geometry",
