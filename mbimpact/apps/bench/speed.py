@@ -258,14 +258,15 @@ CACHED_IMPORT = "fresh interpreter, bytecode cached"
 
 
 def import_time(progress: Progress) -> list[BenchRow]:
-    """``import mbimpact`` in a fresh interpreter, less the interpreter's own start-up (best of 3), twice.
+    """``import mbimpact`` in a fresh interpreter, less the interpreter's own start-up (best of 3): three rows.
 
-    :data:`CACHED_IMPORT`: every module's bytecode already compiled, as ``pip install`` leaves an installed
-    package (written once into a private ``PYTHONPYCACHEPREFIX``, so that the installation itself is left
-    untouched). This is what a user's ``import`` costs, and what the goal reads. Then the environment as it
-    is: with ``PYTHONDONTWRITEBYTECODE`` set, an editable install's modules, which have no bytecode, are
-    compiled from source at every import (about 0.1 s of it on the machine of the README's figures). Beside
-    the first, numpy and Pinocchio alone: the part of the import that is theirs.
+    1. :data:`CACHED_IMPORT`: every module's bytecode already compiled, as ``pip install`` leaves an
+       installed package (written once into a private ``PYTHONPYCACHEPREFIX``, so that the installation
+       itself is left untouched). This is what a user's ``import`` costs, and what the goal reads.
+    2. The same for numpy and Pinocchio alone: the part of that import which is theirs.
+    3. The environment as it is: with ``PYTHONDONTWRITEBYTECODE`` set, an editable install's modules, which
+       have no bytecode, are compiled from source at every import (about 0.1 s of it on the machine of
+       the README's figures).
     """
     def best(code: str, env: dict[str, str]) -> float:
         times = []
