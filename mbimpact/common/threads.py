@@ -12,8 +12,9 @@ are those of numpy and scipy (found once, on the first batch).
 The compiled kernels of :func:`mbimpact.impact_batch` treat each row on its own and release
 the GIL: :func:`over_rows` hands blocks of rows to a pool of threads as the calling thread
 gathers them (Pinocchio's work, which holds the GIL). Every row is computed by the same
-arithmetic on whichever thread, so results do not depend on the thread count. It is that of the CPUs the process may run on, or ``MBIMPACT_NUM_THREADS``, or
-what :func:`set_kernel_threads` sets.
+arithmetic on whichever thread, so results do not depend on the thread count:
+:func:`set_kernel_threads`'s setting, else ``MBIMPACT_NUM_THREADS``, else the CPUs the process
+may run on (:func:`kernel_threads`).
 """
 
 from __future__ import annotations
@@ -33,8 +34,8 @@ from ..errors import ParameterError
 if TYPE_CHECKING:  # concurrent.futures is imported on the first threaded batch (it costs ~7 ms)
     from concurrent.futures import Future, ThreadPoolExecutor
 
-__all__ = ["SINGLE_THREAD_ROWS", "ROWS_PER_THREAD", "BLOCK_ROWS", "single_blas_thread", "kernel_threads", "set_kernel_threads",
-           "over_rows"]
+__all__ = ["SINGLE_THREAD_ROWS", "ROWS_PER_THREAD", "BLOCK_ROWS", "single_blas_thread", "kernel_threads",
+           "set_kernel_threads", "over_rows"]
 
 # Below this many rows a batch's products are too short for threads to matter, and the
 # limit's own cost (~10 µs) would show.
@@ -164,7 +165,8 @@ def over_rows(call: Callable[[int, int], None], rows: int,
     An exception of ``fill`` or of any block is raised once every block handed to a thread has
     finished; after an exception of ``fill``, the blocks no thread has started yet are dropped.
     """
-    threads = max(1, min(kernel_threads(), rows // ROWS_PER_THREAD))
+    available = kernel_threads()
+    threads = max(1, min(available, rows // ROWS_PER_THREAD))
     if threads == 1:
         if fill is not None:
             fill(0, rows)
@@ -180,7 +182,7 @@ def over_rows(call: Callable[[int, int], None], rows: int,
     helpers: list[Future[None]] = []
     filled = False
     try:
-        pool = _pool(kernel_threads() - 1)
+        pool = _pool(available - 1)
         for _ in range(threads - 1):
             helpers.append(pool.submit(work))
     except RuntimeError:  # no new threads (interpreter exit): the calling thread does it all

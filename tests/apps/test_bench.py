@@ -95,7 +95,8 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     flag = "set" if os.environ.get("PYTHONDONTWRITEBYTECODE") else "unset"
     assert set(imports) == {(CACHED_IMPORT, "import mbimpact"),
                             (CACHED_IMPORT, "import numpy, pinocchio (what it imports first)"),
-                            (f"fresh interpreter, this environment (PYTHONDONTWRITEBYTECODE {flag})", "import mbimpact")}
+                            (f"fresh interpreter, this environment (PYTHONDONTWRITEBYTECODE {flag})",
+                             "import mbimpact")}
     assert all(t > 0.0 for t in imports.values())
     assert "| ur5, BLAS threads: default: apply_batch, RoughLaw(Cone), one configuration |" in text
 
