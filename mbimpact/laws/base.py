@@ -158,9 +158,14 @@ class ImpactLaw(ABC):
 
     # ------------------------------------------------------------------ single
     def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
-                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+                        J: NDArray[np.float64], R: NDArray[np.float64],
+                        factor: tuple[NDArray[np.float64], ...] | None = None) -> ImpactResult:
         """The impact of a mechanism at a validated state (q, v), contact Jacobian ``J`` (d, nv) and
         contact frame ``R`` (d, d): the metric of A(q) (stage 2), then :meth:`apply_metric`.
+
+        ``factor`` is (A, U, D), A(q) and its factor as :meth:`Mechanism.factor_arrays` returns them,
+        where the caller has them already (the compiled front end, :mod:`mbimpact.mechanism.front`);
+        it is read only where :meth:`reads_factor` is True.
 
         :func:`mbimpact.impact` calls this. A spatial impact of a law that keeps this pipeline runs it
         compiled on Pinocchio's factor of A(q) (:func:`mbimpact.metric.kernels.prepare_factor`), with
@@ -173,12 +178,17 @@ class ImpactLaw(ABC):
         """
         if len(R) == 3 and self._compiled_route():
             kernels = METRIC_KERNELS.get()
-            A, U, D = mech.factor_arrays(q)
+            A, U, D = factor if factor is not None else mech.factor_arrays(q)
             buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
             status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, RANK_FLOOR, buffer)
             if status == kernels.READY:
                 return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
+
+    def reads_factor(self) -> bool:
+        """Whether a spatial impact of this law on a mechanism starts from A(q)'s factor
+        (:meth:`apply_mechanism` then takes it from the caller where given)."""
+        return self._compiled_route()
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         """The impact at a validated metric, velocity ``v`` (n,) and contact frame ``R`` (d, d)."""

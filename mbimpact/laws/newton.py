@@ -55,7 +55,8 @@ class NewtonLaw(ImpactLaw):
         return ContactImpulses(P, np.zeros(len(U)))
 
     def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
-                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+                        J: NDArray[np.float64], R: NDArray[np.float64],
+                        factor: tuple[NDArray[np.float64], ...] | None = None) -> ImpactResult:
         """:meth:`apply_metric` without the metric: Newton's impulse needs A⁻¹ along n⁰ᵀJ only, one
         solve with Pinocchio's factor of A(q), and the whole impact is one compiled call on it
         (:func:`mbimpact.metric.kernels.newton`), the closed form of :meth:`apply_metric` to rounding.
@@ -66,12 +67,16 @@ class NewtonLaw(ImpactLaw):
         """
         if type(self).apply_metric is NewtonLaw.apply_metric:
             kernels = METRIC_KERNELS.get()
-            A, U, D = mech.factor_arrays(q)
+            A, U, D = factor if factor is not None else mech.factor_arrays(q)
             d = len(R)
             buffer = np.empty(3 * len(v) + 4 * d)
             if kernels.newton(U, D, J, v, R, self.e, buffer):
                 return ImpactResult.from_buffer(buffer, A, J, self)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
+
+    def reads_factor(self) -> bool:
+        """:meth:`ImpactLaw.reads_factor`: True (one solve with the factor, :meth:`apply_mechanism`)."""
+        return True
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with

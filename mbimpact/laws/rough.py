@@ -335,7 +335,8 @@ class RoughLaw(ImpactLaw):
         return _AtSpeeds(self, speed).impulses(metric, U, R)
 
     def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
-                        J: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
+                        J: NDArray[np.float64], R: NDArray[np.float64],
+                        factor: tuple[NDArray[np.float64], ...] | None = None) -> ImpactResult:
         """:meth:`ImpactLaw.apply_mechanism`; one velocity on a :class:`~mbimpact.Cone` by ``"auto"`` runs
         whole in one compiled call (:func:`mbimpact.laws.rough_kernels.cone_impact`): the metric, the
         cone's compiled averaging methods and the outcome, the same arithmetic and decisions as the
@@ -343,9 +344,9 @@ class RoughLaw(ImpactLaw):
         state; what the metric does not prepare takes :meth:`ImpactLaw.apply_mechanism`."""
         plan = self._cone_plan()
         if plan is None or len(R) != 3:
-            return super().apply_mechanism(mech, q, v, J, R)
+            return super().apply_mechanism(mech, q, v, J, R, factor)
         kernels = KERNELS.get()
-        A, U, D = mech.factor_arrays(q)
+        A, U, D = factor if factor is not None else mech.factor_arrays(q)
         buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
         status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
             U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan, buffer)
@@ -354,6 +355,10 @@ class RoughLaw(ImpactLaw):
         if status == kernels.DECLINED:
             return self._finish_single(METRIC_KERNELS.get(), A, J, R, buffer, speed, w_scale)
         return super().apply_mechanism(mech, q, v, J, R)
+
+    def reads_factor(self) -> bool:
+        """:meth:`ImpactLaw.reads_factor`: also on a :class:`~mbimpact.Cone` by ``"auto"``."""
+        return self._cone_plan() is not None or super().reads_factor()
 
     def factored_stack(self) -> bool:
         """True where a single impact runs whole in one compiled call (a :class:`~mbimpact.Cone` by

@@ -6,6 +6,8 @@ impulse (stages 3–5) → Δv = A⁻¹ Jᵀ P and I = Jᵀ P by Lagrange's equa
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -15,13 +17,18 @@ from ..common.validation import as_array
 from ..errors import ImpactError, ParameterError, ShapeError
 from ..results.impact import BatchResult, ImpactResult
 from ..laws.base import ImpactLaw
-from .contact import Contact
+from ..laws.newton import NewtonLaw
+from ..laws.rough import RoughLaw
+from . import front
+from .contact import Contact, PointContact
 from .mechanism import Mechanism
 
 __all__ = ["impact", "impact_batch"]
 
 
-_CHECKED: set[tuple[type, type, type]] = set()  # (mechanism, contact, law) classes that passed _check_parts
+# The route of each (mechanism, contact, law) combination of classes, chosen once: the parts' kinds are
+# checked then, not on every call
+_ROUTES: dict[tuple[type, type, type], Callable[[Any, Any, Any, Any, Any], ImpactResult]] = {}
 
 
 def _check_parts(mech: object, contact: object, law: object) -> None:
@@ -63,12 +70,35 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     NoImpactError, NoFacingFacetError
         The contact point does not approach the surface, or no facet faces it.
     """
+    route = _ROUTES.get((type(mech), type(contact), type(law)))
+    if route is None:
+        route = _route(mech, contact, law)
+    return route(mech, q, v, contact, law)
+
+
+def _route(mech: Mechanism, contact: Contact, law: ImpactLaw) -> Callable[..., ImpactResult]:
+    """The route of this combination of classes: Newton's law at a point contact through the compiled front
+    end (where no part overrides what that computes), else the pipeline."""
+    _check_parts(mech, contact, law)
     kinds = (type(mech), type(contact), type(law))
-    if kinds not in _CHECKED:  # the kinds of parts checked once, not on every call
-        _check_parts(mech, contact, law)
-        if len(_CHECKED) > 1000:  # classes made on the fly: keep the set small
-            _CHECKED.clear()
-        _CHECKED.add(kinds)
+    # the front end computes what these methods do: where a subclass overrides one, the pipeline runs it
+    front_end = (isinstance(contact, PointContact) and kinds[1].jacobian is PointContact.jacobian
+                 and all(getattr(kinds[0], m) is getattr(Mechanism, m)
+                         for m in ("check_state", "frame_jacobian", "factor_arrays")))
+    newton = isinstance(law, NewtonLaw) and all(getattr(kinds[2], m) is getattr(NewtonLaw, m)
+                                                for m in ("apply_mechanism", "apply_metric"))
+    factored = kinds[2].apply_mechanism in _TAKE_FACTOR  # the package's own, which take the factor
+    if len(_ROUTES) > 1000:  # classes made on the fly: keep the table small
+        _ROUTES.clear()
+    route = _ROUTES[kinds] = (_newton_front if newton else _front if factored else _pipeline) if front_end else _pipeline
+    return route
+
+
+_TAKE_FACTOR = (ImpactLaw.apply_mechanism, NewtonLaw.apply_mechanism, RoughLaw.apply_mechanism)
+
+
+def _pipeline(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: ImpactLaw) -> ImpactResult:
+    """The pipeline in Python: checks that name what is wrong, the contact's J and frame, the law."""
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
@@ -77,6 +107,34 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     # the result keeps J: a contact that refilled one array at every call would change earlier results
     J.setflags(write=False)
     return law.apply_mechanism(mech, q, v, J, R)
+
+
+def _front(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: PointContact, law: ImpactLaw) -> ImpactResult:
+    """Stage one of a spatial impact at a point contact in one call of the compiled front end
+    (:meth:`Mechanism.front_stage_one`), then the law as the pipeline applies it: the same arguments, the
+    same result. What the front end leaves (inputs to check, planar laws) takes the pipeline."""
+    if law.dim in (None, 3) and law.reads_factor():
+        stage = mech.front_stage_one(q, v, mech.frame_id(contact.frame), contact.point)
+        if stage is not None:
+            A, U, D, J = stage
+            J.setflags(write=False)
+            return law.apply_mechanism(mech, q, v, J, contact.basis(), (A, U, D))  # type: ignore[arg-type]
+    return _pipeline(mech, q, v, contact, law)
+
+
+def _newton_front(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: PointContact, law: NewtonLaw
+                  ) -> ImpactResult:
+    """Newton's impact at a point contact in one call of the compiled front end: the pipeline's result
+    to the bit. What the front end leaves (inputs to check, degenerate impacts) takes the pipeline."""
+    bound = mech.front_end()
+    native = front.NATIVE
+    if bound is not None and native is not None:
+        n = mech.nv
+        out = np.empty(6 * n + 12 + n * n)
+        if native.newton(bound, q, v, mech.frame_id(contact.frame), contact.point, contact.basis(), law.e,
+                         out) == native.DONE:
+            return ImpactResult.from_packed(out, n, 3, law)
+    return _pipeline(mech, q, v, contact, law)
 
 
 def _bad_shapes(contact: Contact, J: NDArray[np.float64], R: NDArray[np.float64], d: int, nv: int) -> None:

@@ -21,9 +21,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ..common.geometry import offset_point_jacobian
+from ..common.geometry import offset_point_jacobian, rotate
 from ..common.validation import FLOAT64, as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
+from . import front
 from .robots import close_matches, model_path, robot_urdf
 
 if TYPE_CHECKING:  # the geometry layer is imported on use: frame contacts never load it
@@ -388,6 +389,61 @@ class Mechanism:
         local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
         return A, local.U, local.D
 
+    def front_end(self) -> object | None:
+        """This thread's workspace bound to the compiled front end (:mod:`mbimpact.mechanism.front`), or
+        None where that is not in use.
+
+        A call through it leaves A(q)'s factor in the workspace, as :meth:`factor_arrays` does: the
+        factors kept for later solves (:class:`MassFactor`) re-factorise at their next one.
+        """
+        native = front.NATIVE
+        if native is None:
+            return None
+        local = self._local
+        bound = getattr(local, "bound", None)
+        if bound is None:
+            bound = local.bound = native.bind(self.model, self.workspace().data)
+        local.token = next(_TOKENS)
+        return bound
+
+    def front_stage_one(self, q: Any, v: Any, fid: int, point: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                   NDArray[np.float64]] | None:
+        """Stage one of an impact in one call of the compiled front end: q and v checked, the point's
+        Jacobian and A(q) with its factor, the values of :meth:`check_state`, :meth:`frame_jacobian`
+        and :meth:`factor_arrays` to the bit.
+
+        Parameters
+        ----------
+        q, v : object
+            The state as given (not yet checked).
+        fid : int
+            Frame index.
+        point : ndarray, shape (3,)
+            Offset of the point from the frame origin, in the frame's axes (zeros: the origin).
+
+        Returns
+        -------
+        (A, U, D, J) or None
+            A (nv, nv) and J (3, nv), the caller's own, and the factor A = U D Uᵀ as
+            :meth:`factor_arrays` gives it (views of the workspace: read them at once). None where
+            the front end is not in use, or q and v are not float64 arrays of the right lengths,
+            finite, with normalised quaternions: :meth:`check_state` then names or converts them.
+        """
+        bound = self.front_end()
+        native = front.NATIVE
+        if bound is None or native is None:
+            return None
+        n = self._dims[1]
+        A, J = np.empty((n, n)), np.empty((3, n))
+        if native.stage_one(bound, q, v, fid, point, A, J) != native.DONE:
+            return None
+        local = self._local
+        data = local.data
+        if getattr(local, "factor_of", None) is not data:
+            local.U, local.D, local.factor_of = data.U, data.D, data
+        return A, local.U, local.D, J
+
     def fill_factors(self, Q: NDArray[np.float64], A: NDArray[np.float64], U: NDArray[np.float64] | None = None,
                      D: NDArray[np.float64] | None = None) -> None:
         """:meth:`factor_arrays` for every row of a validated ``Q`` (B, nq) in one lean loop: A(q) into
@@ -435,7 +491,7 @@ class Mechanism:
             J6 = np.asarray(J6).reshape(6, self._dims[1])
         if point is None:
             return J6[:3]  # a view of the fresh (6, nv) array Pinocchio returned: nothing else holds it
-        return offset_point_jacobian(J6, data.oMf[fid].rotation @ point)
+        return offset_point_jacobian(J6, rotate(data.oMf[fid].rotation, point))
 
     def fill_frame_jacobians(self, Q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None,
                              J: NDArray[np.float64]) -> None:

@@ -130,9 +130,29 @@ class ImpactResult:
         """
         self = cls.__new__(cls)
         state = self.__dict__
-        state["_buffer"], state["_A"], state["_J"], state["law"] = buffer, A, J, law
+        state["_buffer"], state["_A"], state["_J"], state["_dims"], state["law"] = buffer, A, J, J.shape, law
         if error_estimate or nodes != 1 or method != "closed-form":  # else the class defaults stand
             state.update(error_estimate=error_estimate, nodes=nodes, method=method)
+        return self
+
+    @classmethod
+    def from_packed(cls, buffer: NDArray[np.float64], n: int, d: int, law: Any) -> ImpactResult:
+        """:meth:`from_buffer` of a closed-form impact whose ``A`` and ``J`` lie in the buffer too.
+
+        Parameters
+        ----------
+        buffer : ndarray, shape (3n + 4d + n² + dn,)
+            The vectors as :meth:`from_buffer` reads them, then A (n, n) and J (d, n), row-major
+            (what the compiled front end fills, :mod:`mbimpact.mechanism.front`). It becomes the
+            result's own; each array is a read-only view of it, taken on first access.
+        n, d : int
+            Velocities and contact-space dimension.
+        law
+            As for the constructor.
+        """
+        self = cls.__new__(cls)
+        state = self.__dict__
+        state["_buffer"], state["_A"], state["_J"], state["_dims"], state["law"] = buffer, None, None, (d, n), law
         return self
 
     def __getattr__(self, name: str) -> Any:
@@ -140,14 +160,18 @@ class ImpactResult:
         state = self.__dict__
         buffer = state.get("_buffer")
         if buffer is not None:
+            d, n = state["_dims"]
             if name == "A" or name == "J":
                 array = state["_" + name]
+                if array is None:  # packed after the vectors (from_packed)
+                    buffer.setflags(write=False)
+                    start = 3 * n + 4 * d + (0 if name == "A" else n * n)
+                    array = buffer[start:start + (n * n if name == "A" else d * n)].reshape(-1, n)
                 array.setflags(write=False)
                 return state.setdefault(name, array)
             place = _IN_BUFFER.get(name)
             if place is not None:
                 buffer.setflags(write=False)  # before any view: the views of a read-only buffer are read-only
-                d, n = state["_J"].shape
                 a, b, length = place
                 start = a * n + b * d
                 return state.setdefault(name, buffer[start:start + (n if length == "n" else d)])

@@ -1,6 +1,7 @@
 """The compiled core of the contact metric and of the single impact (mbimpact.metric.kernels), and the
 registry of compiled kernels (mbimpact.compile_kernels)."""
 
+import os
 import subprocess
 import sys
 
@@ -84,7 +85,8 @@ def test_single_impact_errors_from_the_compiled_route_are_named():
 def test_compile_kernels_makes_every_registered_module_ready():
     """mbi.compile_kernels() loads every kernel module of the package and times each; in a fresh
     interpreter, `import mbimpact` imports no numba, nor does Newton's law on arrays (a closed form in
-    numpy); the first impact of a mechanism does (its route is compiled, Newton's included)."""
+    numpy), nor Newton's impact of a mechanism where the compiled front end runs it whole; the first
+    rough impact of a mechanism does (its route is compiled), and so does Newton's without the front end."""
     out = mbi.compile_kernels()
     assert {"mbimpact.metric.kernels", "mbimpact.averaging.cone_kernels", "mbimpact.laws.coulomb_kernels",
             "mbimpact.averaging.slope_pass_kernels"} <= set(out)
@@ -93,9 +95,13 @@ def test_compile_kernels_makes_every_registered_module_ready():
             "m = mbi.Mechanism.from_robot('ur5'); q = m.neutral() + 0.3; J = m.point_jacobian(q, 'tool0'); "
             "v = np.linalg.lstsq(J, [0.0, 0.0, -1.0], rcond=None)[0]; "
             "mbi.NewtonLaw(0.5).apply(m.mass_matrix(q), J, v, [0.0, 0.0, 1.0]); assert 'numba' not in sys.modules; "
+            "from mbimpact.mechanism import front; "
             "mbi.impact(m, q, v, mbi.PointContact('tool0'), mbi.NewtonLaw(0.5)); "
+            "assert ('numba' in sys.modules) != front.available(), front.status(); "
+            "mbi.impact(m, q, v, mbi.PointContact('tool0'), mbi.RoughLaw(mbi.Cone(alpha=0.3), e=0.5)); "
             "assert 'numba' in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+    subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, "MBIMPACT_NATIVE": "0"})
 
 
 @given(seeds, st.floats(-16.0, 0.0), st.floats(0.0, 1.0), st.sampled_from([0, 1, 2]))

@@ -31,10 +31,14 @@ class BenchRow:
 
 
 def machine_summary() -> str:
-    """Processor, Python, numpy and Pinocchio versions, for the report."""
+    """Processor, Python, numpy and Pinocchio versions, and whether the compiled front end ran
+    (:func:`mbimpact.mechanism.front.status`), for the report."""
+    from ...mechanism import front
+
     return (
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, {platform.system()}, "
-        f"Python {platform.python_version()}, numpy {np.__version__}, pinocchio {pin.__version__}"
+        f"Python {platform.python_version()}, numpy {np.__version__}, pinocchio {pin.__version__}; "
+        f"compiled front end {front.status()}"
     )
 
 
