@@ -77,21 +77,31 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
 
 
 def _route(mech: Mechanism, contact: Contact, law: ImpactLaw) -> Callable[..., ImpactResult]:
-    """The route of this combination of classes: Newton's law at a point contact through the compiled front
-    end (where no part overrides what that computes), else the pipeline."""
+    """The route of this combination of classes. At a point contact, where no part overrides what the
+    compiled front end computes: Newton's law whole through it, and the laws that start from A(q)'s
+    factor from its stage one. Everything else: the pipeline."""
     _check_parts(mech, contact, law)
     kinds = (type(mech), type(contact), type(law))
-    # the front end computes what these methods do: where a subclass overrides one, the pipeline runs it
-    front_end = (isinstance(contact, PointContact) and kinds[1].jacobian is PointContact.jacobian
-                 and all(getattr(kinds[0], m) is getattr(Mechanism, m)
-                         for m in ("check_state", "frame_jacobian", "factor_arrays")))
+    front_end = _front_parts(mech, contact)
     newton = isinstance(law, NewtonLaw) and all(getattr(kinds[2], m) is getattr(NewtonLaw, m)
                                                 for m in ("apply_mechanism", "apply_metric"))
     factored = kinds[2].apply_mechanism in _TAKE_FACTOR  # the package's own, which take the factor
     if len(_ROUTES) > 1000:  # classes made on the fly: keep the table small
         _ROUTES.clear()
-    route = _ROUTES[kinds] = (_newton_front if newton else _front if factored else _pipeline) if front_end else _pipeline
+    route: Callable[..., ImpactResult] = _pipeline
+    if front_end:
+        route = _newton_front if newton else _front if factored else _pipeline
+    _ROUTES[kinds] = route
     return route
+
+
+def _front_parts(mech: Mechanism, contact: Contact) -> bool:
+    """Whether the compiled front end computes what this mechanism and contact would: a point contact, and
+    none of the methods it stands for overridden (the pipeline then runs the override)."""
+    return (isinstance(contact, PointContact) and type(contact).jacobian is PointContact.jacobian
+            and all(getattr(type(mech), m) is getattr(Mechanism, m)
+                    for m in ("check_state", "check_configuration", "frame_jacobian", "factor_arrays",
+                              "fill_factors", "fill_frame_jacobians")))
 
 
 _TAKE_FACTOR = (ImpactLaw.apply_mechanism, NewtonLaw.apply_mechanism, RoughLaw.apply_mechanism)
@@ -191,7 +201,10 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
     A, J, R = np.empty((B, n, n)), np.empty((B, d, n)), np.empty((B, d, d))
     # Q is finite (as_array); only quaternion blocks (nq > nv) need a check per row
     stop = [B]  # the first row that cannot be gathered (B: none)
-    if mech.nq != mech.nv:
+    # the compiled front end gathers the rows (and checks their quaternions) where it computes what the
+    # contact and mechanism would
+    front_rows = d == 3 and front.NATIVE is not None and _front_parts(mech, contact)
+    if mech.nq != mech.nv and not front_rows:
         for i, q in enumerate(Q):
             try:
                 mech.check_configuration(q)
@@ -201,6 +214,17 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
 
     def gather(a: int, b: int, U: NDArray[np.float64] | None = None, D: NDArray[np.float64] | None = None) -> None:
         """J, R and A(q) (and its factor U, D) of rows a to b, or _Unfilled at the first bad one."""
+        if front_rows:  # the compiled front end, row after row, with the quaternion checks
+            assert isinstance(contact, PointContact)
+            got = mech.front_fill_rows(Q[a:b], mech.frame_id(contact.frame), contact.point, A[a:b], J[a:b],
+                                       None if U is None else U[a:b], None if D is None else D[a:b])
+            if got is None:  # turned off meanwhile (front.disabled): the row-by-row route
+                raise _Unfilled
+            R[a:b] = contact.basis()
+            if a + got < b:
+                stop[0] = a + got
+                raise _Unfilled
+            return
         end = min(b, stop[0])
         got = contact.fill_jacobians(mech, Q[a:end], d, J[a:end], R[a:end]) if end > a else 0
         if a + got < b:

@@ -444,6 +444,26 @@ class Mechanism:
             local.U, local.D, local.factor_of = data.U, data.D, data
         return A, local.U, local.D, J
 
+    def front_fill_rows(self, Q: NDArray[np.float64], fid: int, point: NDArray[np.float64], A: NDArray[np.float64],
+                        J: NDArray[np.float64], U: NDArray[np.float64] | None = None,
+                        D: NDArray[np.float64] | None = None) -> int | None:
+        """:meth:`front_stage_one` for the rows of a finite ``Q`` (B, nq), in one call: each row's A(q) into
+        ``A[i]`` (B, nv, nv), the point's Jacobian into ``J[i]`` (B, 3, nv) and, where given, the factor
+        into ``U[i]`` (B, nv, nv) and ``D[i]`` (B, nv); the values of :meth:`fill_factors` and
+        :meth:`fill_frame_jacobians`, to the bit.
+
+        Returns
+        -------
+        int or None
+            The rows filled: B, or the first row whose quaternion blocks are not normalised. None
+            where the front end is not in use (nothing filled).
+        """
+        bound = self.front_end()
+        native = front.NATIVE
+        if bound is None or native is None:
+            return None
+        return native.stage_rows(bound, Q, fid, point, A, J, U, D)
+
     def fill_factors(self, Q: NDArray[np.float64], A: NDArray[np.float64], U: NDArray[np.float64] | None = None,
                      D: NDArray[np.float64] | None = None) -> None:
         """:meth:`factor_arrays` for every row of a validated ``Q`` (B, nq) in one lean loop: A(q) into

@@ -352,6 +352,70 @@ PyObject* stage_one_py(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   return PyLong_FromLong(status);
 }
 
+// stage_rows(bound, Q, fid, point, A, J, U, D) -> rows: stage_one for the rows of Q (B, nq), finite, in
+// order, into A (B, n, n), J (B, 3, n) and, unless None, the factor into U (B, n, n) and D (B, n);
+// stops at the first row whose quaternion blocks are not normalised (the rows done are returned).
+PyObject* stage_rows(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
+  if (!nargs_ok(nargs, 8, "stage_rows")) return nullptr;
+  Bound* b = bound_of(args[0]);
+  if (b == nullptr) return nullptr;
+  const Model& m = *b->model;
+  Data& d = *b->data;
+  const Eigen::Index n = m.nv;
+  View Q, p;
+  double point[3];
+  bool offset = false;
+  pinocchio::FrameIndex fid = 0;
+  if (!(Q.take(args[1], 2) && Q.cols == m.nq && frame_index(args[2], m, fid) && offset_of(args[3], p, point, offset))) {
+    PyErr_SetString(PyExc_ValueError, "stage_rows takes Q, a float64 array (B, nq), a frame index and a point (3,)");
+    return nullptr;
+  }
+  const Py_ssize_t rows = Q.rows;
+  const bool factor = args[6] != Py_None && args[7] != Py_None;
+  Py_buffer ab, jb, ub, db;
+  double* A = output(args[4], &ab, rows * n * n);
+  if (A == nullptr) return nullptr;
+  double* J = output(args[5], &jb, rows * 3 * n);
+  double* U = nullptr;
+  double* D = nullptr;
+  if (J != nullptr && factor) {
+    U = output(args[6], &ub, rows * n * n);
+    if (U != nullptr) {
+      D = output(args[7], &db, rows * n);
+      if (D == nullptr) PyBuffer_Release(&ub);
+    }
+  }
+  if (J == nullptr || (factor && D == nullptr)) {
+    PyBuffer_Release(&ab);
+    if (J != nullptr) PyBuffer_Release(&jb);
+    return nullptr;
+  }
+  Py_ssize_t done = 0;
+  for (; done < rows; ++done) {
+    bool finite = true;
+    for (Eigen::Index k = 0; k < m.nq; ++k) {
+      b->q[k] = Q(done, k);
+      finite = finite && std::isfinite(b->q[k]);
+    }
+    if (!finite || (m.nq != m.nv && !pinocchio::isNormalized(m, b->q, 1e-9))) break;
+    stage_one(*b, fid, offset ? point : nullptr, A + done * n * n, J + done * 3 * n);
+    if (factor) {
+      double* u = U + done * n * n;
+      for (Eigen::Index r = 0; r < n; ++r) {
+        for (Eigen::Index c = 0; c < n; ++c) u[r * n + c] = d.U(r, c);
+        D[done * n + r] = d.D[r];
+      }
+    }
+  }
+  PyBuffer_Release(&ab);
+  PyBuffer_Release(&jb);
+  if (factor) {
+    PyBuffer_Release(&ub);
+    PyBuffer_Release(&db);
+  }
+  return PyLong_FromSsize_t(done);
+}
+
 PyMethodDef kMethods[] = {
     {"bind", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(bind)), METH_FASTCALL,
      "bind(model, data) -> capsule: a pinocchio.Model and a Data of it, for the calls below."},
@@ -359,6 +423,8 @@ PyMethodDef kMethods[] = {
      "newton(bound, q, v, fid, point, R, e, out) -> status (0 done, 1 checks, 2 general route)."},
     {"stage_one", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(stage_one_py)), METH_FASTCALL,
      "stage_one(bound, q, v, fid, point, A, J) -> status (0 done, 1 checks): A(q), J(q), A's factor."},
+    {"stage_rows", reinterpret_cast<PyCFunction>(reinterpret_cast<void (*)()>(stage_rows)), METH_FASTCALL,
+     "stage_rows(bound, Q, fid, point, A, J, U, D) -> rows: stage_one for each row of Q, in order."},
     {nullptr, nullptr, 0, nullptr}};
 
 PyModuleDef kModule = {PyModuleDef_HEAD_INIT, "native", "mbimpact's compiled front end (see front.py).", -1,
