@@ -99,19 +99,28 @@ struct View {
   }
 };
 
-// The output buffer: writable, C-contiguous float64, at least `size` long (a ValueError if not:
-// the caller's mistake, not the input's).
-double* output(PyObject* object, Py_buffer* buffer, Py_ssize_t size) {
-  if (PyObject_GetBuffer(object, buffer, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE | PyBUF_FORMAT) < 0) return nullptr;
-  const char* f = buffer->format;
-  if (f != nullptr && (*f == '@' || *f == '=' || *f == '<')) ++f;
-  if (f == nullptr || std::strcmp(f, "d") != 0 || buffer->len < size * 8) {
-    PyBuffer_Release(buffer);
-    PyErr_Format(PyExc_ValueError, "out must be a writable contiguous float64 buffer of at least %zd entries", size);
-    return nullptr;
+// An output buffer: writable, C-contiguous float64, at least `size` long (a ValueError if not: the
+// caller's mistake, not the input's); released with the object.
+struct Output {
+  Py_buffer buffer{};
+  bool held = false;
+
+  ~Output() {
+    if (held) PyBuffer_Release(&buffer);
   }
-  return static_cast<double*>(buffer->buf);
-}
+  // the buffer's data, or null with a Python error set
+  double* take(PyObject* object, Py_ssize_t size) {
+    if (PyObject_GetBuffer(object, &buffer, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE | PyBUF_FORMAT) < 0) return nullptr;
+    held = true;
+    const char* f = buffer.format;
+    if (f != nullptr && (*f == '@' || *f == '=' || *f == '<')) ++f;
+    if (f == nullptr || std::strcmp(f, "d") != 0 || buffer.len < size * 8) {
+      PyErr_Format(PyExc_ValueError, "out must be a writable contiguous float64 buffer of at least %zd entries", size);
+      return nullptr;
+    }
+    return static_cast<double*>(buffer.buf);
+  }
+};
 
 // q and v of the right lengths, finite, the quaternion blocks normalised: else the checked route.
 bool state_valid(Bound& b, const View& q, const View* v) {
@@ -231,24 +240,30 @@ bool newton_kernel(const Data& d, const double* J, const View& v, const View& R,
   return std::isfinite(total);
 }
 
-// The offset point of a contact: null for the frame origin (all zeros), else its three entries.
-bool offset_of(PyObject* object, View& view, double* point, bool& given) {
-  if (!view.take(object, 1) || view.rows != 3) return false;
-  for (int i = 0; i < 3; ++i) point[i] = view(i);
-  given = point[0] != 0.0 || point[1] != 0.0 || point[2] != 0.0;
-  return true;
-}
+// Where the contact point is: a frame index of the model and an offset from the frame origin (frame
+// axes; all zeros for the origin itself).
+struct ContactPoint {
+  View view;
+  double offset[3] = {0.0, 0.0, 0.0};
+  bool has_offset = false;
+  pinocchio::FrameIndex fid = 0;
 
-bool frame_index(PyObject* object, const Model& m, pinocchio::FrameIndex& fid) {
-  const long long f = PyLong_AsLongLong(object);
-  if (f == -1 && PyErr_Occurred()) {
-    PyErr_Clear();
-    return false;
+  // false (with no Python error set) for a frame index out of range or a point not a (3,) float64 array
+  bool take(PyObject* frame, PyObject* point, const Model& m) {
+    const long long f = PyLong_AsLongLong(frame);
+    if (f == -1 && PyErr_Occurred()) {
+      PyErr_Clear();
+      return false;
+    }
+    if (f < 0 || f >= static_cast<long long>(m.nframes)) return false;
+    fid = static_cast<pinocchio::FrameIndex>(f);
+    if (!view.take(point, 1) || view.rows != 3) return false;
+    for (int i = 0; i < 3; ++i) offset[i] = view(i);
+    has_offset = offset[0] != 0.0 || offset[1] != 0.0 || offset[2] != 0.0;
+    return true;
   }
-  if (f < 0 || f >= static_cast<long long>(m.nframes)) return false;
-  fid = static_cast<pinocchio::FrameIndex>(f);
-  return true;
-}
+  const double* point() const { return has_offset ? offset : nullptr; }
+};
 
 bool nargs_ok(Py_ssize_t got, Py_ssize_t want, const char* name) {
   if (got == want) return true;
@@ -302,22 +317,19 @@ PyObject* newton(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   if (e == -1.0 && PyErr_Occurred()) return nullptr;
   const Model& m = *b->model;
   const Eigen::Index n = m.nv;
-  Py_buffer out_buffer;
-  double* out = output(args[7], &out_buffer, 6 * n + 12 + n * n);
+  Output out_buffer;
+  double* out = out_buffer.take(args[7], 6 * n + 12 + n * n);
   if (out == nullptr) return nullptr;
-  View q, v, p, R;
-  double point[3];
-  bool offset = false;
-  pinocchio::FrameIndex fid = 0;
+  View q, v, R;
+  ContactPoint at;
   long status = kChecks;
-  if (q.take(args[1], 1) && v.take(args[2], 1) && frame_index(args[3], m, fid) && offset_of(args[4], p, point, offset)
-      && R.take(args[5], 2) && R.rows == 3 && R.cols == 3 && state_valid(*b, q, &v)) {
+  if (q.take(args[1], 1) && v.take(args[2], 1) && at.take(args[3], args[4], m) && R.take(args[5], 2) && R.rows == 3
+      && R.cols == 3 && state_valid(*b, q, &v)) {
     double* A = out + 3 * n + 12;
     double* J = A + n * n;
-    stage_one(*b, fid, offset ? point : nullptr, A, J);
+    stage_one(*b, at.fid, at.point(), A, J);
     status = newton_kernel(*b->data, J, v, R, e, out, n) ? kDone : kGeneral;
   }
-  PyBuffer_Release(&out_buffer);
   return PyLong_FromLong(status);
 }
 
@@ -329,26 +341,17 @@ PyObject* stage_one_py(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   if (b == nullptr) return nullptr;
   const Model& m = *b->model;
   const Eigen::Index n = m.nv;
-  Py_buffer a_buffer, j_buffer;
-  double* A = output(args[5], &a_buffer, n * n);
-  if (A == nullptr) return nullptr;
-  double* J = output(args[6], &j_buffer, 3 * n);
-  if (J == nullptr) {
-    PyBuffer_Release(&a_buffer);
-    return nullptr;
-  }
-  View q, v, p;
-  double point[3];
-  bool offset = false;
-  pinocchio::FrameIndex fid = 0;
+  Output a_buffer, j_buffer;
+  double* A = a_buffer.take(args[5], n * n);
+  double* J = A == nullptr ? nullptr : j_buffer.take(args[6], 3 * n);
+  if (J == nullptr) return nullptr;
+  View q, v;
+  ContactPoint at;
   long status = kChecks;
-  if (q.take(args[1], 1) && v.take(args[2], 1) && frame_index(args[3], m, fid) && offset_of(args[4], p, point, offset)
-      && state_valid(*b, q, &v)) {
-    stage_one(*b, fid, offset ? point : nullptr, A, J);
+  if (q.take(args[1], 1) && v.take(args[2], 1) && at.take(args[3], args[4], m) && state_valid(*b, q, &v)) {
+    stage_one(*b, at.fid, at.point(), A, J);
     status = kDone;
   }
-  PyBuffer_Release(&a_buffer);
-  PyBuffer_Release(&j_buffer);
   return PyLong_FromLong(status);
 }
 
@@ -362,33 +365,24 @@ PyObject* stage_rows(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   const Model& m = *b->model;
   Data& d = *b->data;
   const Eigen::Index n = m.nv;
-  View Q, p;
-  double point[3];
-  bool offset = false;
-  pinocchio::FrameIndex fid = 0;
-  if (!(Q.take(args[1], 2) && Q.cols == m.nq && frame_index(args[2], m, fid) && offset_of(args[3], p, point, offset))) {
+  View Q;
+  ContactPoint at;
+  if (!(Q.take(args[1], 2) && Q.cols == m.nq && at.take(args[2], args[3], m))) {
     PyErr_SetString(PyExc_ValueError, "stage_rows takes Q, a float64 array (B, nq), a frame index and a point (3,)");
     return nullptr;
   }
   const Py_ssize_t rows = Q.rows;
   const bool factor = args[6] != Py_None && args[7] != Py_None;
-  Py_buffer ab, jb, ub, db;
-  double* A = output(args[4], &ab, rows * n * n);
-  if (A == nullptr) return nullptr;
-  double* J = output(args[5], &jb, rows * 3 * n);
+  Output a_buffer, j_buffer, u_buffer, d_buffer;
+  double* A = a_buffer.take(args[4], rows * n * n);
+  double* J = A == nullptr ? nullptr : j_buffer.take(args[5], rows * 3 * n);
+  if (J == nullptr) return nullptr;
   double* U = nullptr;
   double* D = nullptr;
-  if (J != nullptr && factor) {
-    U = output(args[6], &ub, rows * n * n);
-    if (U != nullptr) {
-      D = output(args[7], &db, rows * n);
-      if (D == nullptr) PyBuffer_Release(&ub);
-    }
-  }
-  if (J == nullptr || (factor && D == nullptr)) {
-    PyBuffer_Release(&ab);
-    if (J != nullptr) PyBuffer_Release(&jb);
-    return nullptr;
+  if (factor) {
+    U = u_buffer.take(args[6], rows * n * n);
+    D = U == nullptr ? nullptr : d_buffer.take(args[7], rows * n);
+    if (D == nullptr) return nullptr;
   }
   Py_ssize_t done = 0;
   for (; done < rows; ++done) {
@@ -398,7 +392,7 @@ PyObject* stage_rows(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
       finite = finite && std::isfinite(b->q[k]);
     }
     if (!finite || (m.nq != m.nv && !pinocchio::isNormalized(m, b->q, 1e-9))) break;
-    stage_one(*b, fid, offset ? point : nullptr, A + done * n * n, J + done * 3 * n);
+    stage_one(*b, at.fid, at.point(), A + done * n * n, J + done * 3 * n);
     if (factor) {
       double* u = U + done * n * n;
       for (Eigen::Index r = 0; r < n; ++r) {
@@ -406,12 +400,6 @@ PyObject* stage_rows(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
         D[done * n + r] = d.D[r];
       }
     }
-  }
-  PyBuffer_Release(&ab);
-  PyBuffer_Release(&jb);
-  if (factor) {
-    PyBuffer_Release(&ub);
-    PyBuffer_Release(&db);
   }
   return PyLong_FromSsize_t(done);
 }
