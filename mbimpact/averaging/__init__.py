@@ -8,6 +8,7 @@ name                   what it does                                             
 ``ring``               Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
 ``tilt-table``         Chebyshev tables of a tilt density in the incidence (exact)    tilt densities, ≥ 1024 rows
 ``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity (3-D), a peak < 0.15
+``pole-pass``          a cone's peaks as poles in closed form, the rest plain, compiled one velocity, a peak < 0.15
 ``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity, a peak < 0.15
 ``graded``             quadrature graded towards the peaks of a nearly singular W     a peak narrower than 0.15
 ``cone-pair``          a cone's first adaptive pass (32 + 64 nodes), one compiled call one velocity on a cone
@@ -32,6 +33,7 @@ from .cone_pass import ConePass
 from .exact import Exact, MonteCarlo
 from .graded_pass import GradedPass
 from .graded_slope_pass import GradedSlopePass
+from .pole_pass import PolePass
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
 from .ring import Ring
@@ -49,6 +51,7 @@ __all__ = [
     "Ring",
     "TiltTableMethod",
     "Graded",
+    "PolePass",
     "GradedPass",
     "GradedSlopePass",
     "ConePair",
@@ -62,10 +65,10 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, GradedPass, Graded, ConePair, ConePass, SlopePass,
+    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, PolePass, GradedPass, Graded, ConePair, ConePass, SlopePass,
                 Fixed, Adaptive, MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "graded-pass", "graded",
-                               "cone-pair", "cone-pass", "slope-pass", "fixed", "adaptive")
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "pole-pass", "graded-pass",
+                               "graded", "cone-pair", "cone-pass", "slope-pass", "fixed", "adaptive")

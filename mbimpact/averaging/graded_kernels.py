@@ -33,7 +33,8 @@ from ..quadrature.rules import gauss_legendre
 from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
 from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
 
-__all__ = ["rule_table", "ring_peaks", "graded_pass", "graded_levels", "jit_seconds", "SETTLED", "DEGENERATE_FACET",
+__all__ = ["rule_table", "ring_form", "ring_minima_into", "ring_peaks", "graded_pass", "graded_levels", "jit_seconds",
+           "SETTLED", "DEGENERATE_FACET",
            "NOT_FACING", "NOT_PEAKED", "STALLED", "CAPPED"]
 
 # status codes of :func:`graded_pass`: the velocity is settled to rtol, or why not (STALLED and CAPPED are
@@ -102,7 +103,7 @@ _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.
 
 
 @njit(cache=True, error_model="numpy")
-def _form(s: float, c: float, W: NDArray[np.float64]) -> tuple[float, float, float, float, float]:  # pragma: no cover
+def ring_form(s: float, c: float, W: NDArray[np.float64]) -> tuple[float, float, float, float, float]:  # pragma: no cover
     """q(φ) = q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ on the ring (s, c) = (sin α, cos α):
     :func:`mbimpact.common.geometry.ring_quadratic_form`, in its arithmetic."""
     return (0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2], 2 * s * c * W[0, 2], 2 * s * c * W[1, 2],
@@ -110,7 +111,7 @@ def _form(s: float, c: float, W: NDArray[np.float64]) -> tuple[float, float, flo
 
 
 @njit(cache=True, error_model="numpy")
-def _peaks(form: tuple[float, float, float, float, float], peaked: float, phi_out: NDArray[np.float64],
+def ring_minima_into(form: tuple[float, float, float, float, float], peaked: float, phi_out: NDArray[np.float64],
            eps_out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
     """The minima of q on the ring and their widths into ``phi_out``, ``eps_out`` (2,): their number, or
     0 where :meth:`mbimpact.Cone.graded_rule` has no graded rule (no peak narrower than ``peaked``, or
@@ -183,7 +184,7 @@ def ring_peaks(alpha: float, W: NDArray[np.float64], peaked: float) -> int:  # p
     int
     """
     phi, eps = np.empty(2), np.empty(2)
-    return _peaks(_form(math.sin(alpha), math.cos(alpha), W), peaked, phi, eps)
+    return ring_minima_into(ring_form(math.sin(alpha), math.cos(alpha), W), peaked, phi, eps)
 
 
 @njit(cache=True, error_model="numpy")
@@ -231,7 +232,7 @@ def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], 
     (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
-    k = _peaks(_form(s, c, W), peaked, phi_star, eps_star)
+    k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
     if k == 0:
         return NOT_PEAKED, 0
     # the facing interval [lo, hi] (facing_half_width): the whole ring from ψ, or the arc ψ + π ± h

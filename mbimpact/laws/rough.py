@@ -20,6 +20,7 @@ from ..averaging import (AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, Con
 from ..averaging.cone_pair import KERNELS as CONE_KERNELS
 from ..averaging.graded_pass import KERNELS as GRADED_KERNELS
 from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
+from ..averaging.pole_pass import pole_plan
 from ..averaging.refinement import level_plan
 from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
@@ -45,8 +46,9 @@ __all__ = ["RoughLaw", "KERNELS"]
 KERNELS = KernelModule("mbimpact.laws.rough_kernels")
 
 # what "auto" tries for one velocity on a cone, in order, when the compiled single impact stands for it
-# ("ring" and "fixed" are not worthwhile for one velocity without a fixed node count)
-_CONE_AUTO = ("ring", "graded-pass", "graded", "cone-pair", "cone-pass", "fixed", "adaptive")
+# ("ring" and "fixed" are not worthwhile for one velocity without a fixed node count; "pole-pass" is not
+# with the configuration flux)
+_CONE_AUTO = ("ring", "pole-pass", "graded-pass", "graded", "cone-pair", "cone-pass", "fixed", "adaptive")
 # levels of the compiled call's node tables (32, 64, 128 nodes for a cone: the anisotropic W of a foot
 # on the ground needs the third); a velocity that needs more goes on in Python with every level
 _CONE_LEVELS = 3
@@ -388,14 +390,15 @@ class RoughLaw(ImpactLaw):
 
     def _cone_plan(self) -> tuple[Any, ...] | None:
         """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded
-        and the cone's node tables and level counts, Graded.peaked, the flux, e, rtol), or None where it
+        rule's, the cone's and ``"pole-pass"``'s node tables and level counts, Graded.peaked, the flux, e,
+        rtol), or None where it
         does not stand for this law's "auto": another method, a measure other than a cone, repeated
         micro-impacts, facets other than Newton's, a fixed node count, levels short of the first pair,
         a ``"ring"`` worthwhile for one velocity, or a subclass (which may override any step).
 
         Made again whenever what it was made of changes (the spec, ``method``, ``repeat``,
         ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64
-        and 128 nodes for a cone): a velocity that needs more is declined by the compiled call and
+        and 128 nodes for a cone; 16 … 128 for ``"pole-pass"``): a velocity that needs more is declined by the compiled call and
         goes on with every level in Python, so that a law never builds tables up to ``max_nodes``
         (Gauss–Legendre nodes by the thousand take seconds) for the few impacts that need them."""
         key = (self.spec, self.method, self.repeat, Graded.peaked, Ring.min_rows)
@@ -412,8 +415,10 @@ class RoughLaw(ImpactLaw):
             if levels >= 2 and 2 * spec.roughness.initial_nodes <= spec.max_nodes:
                 levels = min(levels, _CONE_LEVELS)
                 graded, cone = GRADED_KERNELS.get(), CONE_KERNELS.get()
+                pole_n, pole_levels = pole_plan(spec)
                 plan = (spec.roughness.alpha, graded.rule_table(n, levels), levels, Graded.peaked,
-                        cone.rule_table(n, levels), levels, spec.flux == "configuration", spec.e, spec.rtol)
+                        cone.rule_table(n, levels), levels, cone.rule_table(pole_n, pole_levels), pole_levels,
+                        spec.flux == "configuration", spec.e, spec.rtol)
         self._cone = (key, plan)
         return plan
 

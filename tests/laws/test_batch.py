@@ -132,7 +132,7 @@ def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, fra
         batch = mbi.impact_batch(mech, Q, V, contact, law)
         singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
     _assert_rows_are_single_impacts(batch, singles)
-    expected = {"ur5": {"graded-pass", "cone-pair"}, "solo12": {"cone-pair", "cone-pass"}}[robot]
+    expected = {"ur5": {"pole-pass", "cone-pair"}, "solo12": {"cone-pair", "cone-pass"}}[robot]
     assert expected <= set(batch.method.split("+"))
     assert np.all(batch.energy_loss >= 0.0)
 
@@ -193,7 +193,7 @@ def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         batch = mbi.impact_batch(mech, Q, V, contact, law)
-    assert not batch.separates.any() and batch.method == "graded-pass"  # homogeneity: every row as the first
+    assert not batch.separates.any() and batch.method == "pole-pass"  # homogeneity: every row as the first
     assert [type(w.message) for w in caught] == [mbi.NoSeparationWarning]
     assert "kappa < 0" in str(caught[0].message) and caught[0].filename == __file__
     Q = np.stack([mech.random_configuration(rng) for _ in range(4)])  # generic postures, normal incidence

@@ -1,0 +1,144 @@
+"""One velocity on a Cone with a nearly singular W: the kernels' poles taken out and integrated in closed form."""
+
+import cmath
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import mbimpact as mbi
+from mbimpact.averaging import AUTO_ORDER, Graded, PolePass
+from mbimpact.averaging.pole_kernels import ring_zero
+
+from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, mechanism, relative_du, seeds, spd, unit_velocities,
+                           upright_ur5_delassus)
+
+
+def _q(alpha, W, z):
+    """q(z) = m(z)ᵀ W m(z) on the complexified ring, m(z) = (s (z + 1/z)/2, s (z − 1/z)/2i, c)."""
+    s, c = math.sin(alpha), math.cos(alpha)
+    m = np.array([s * (z + 1 / z) / 2, s * (z - 1 / z) / 2j, c])
+    return m @ W @ m
+
+
+@given(seeds, st.floats(0.05, 1.5), st.floats(3.0, 7.0), st.booleans())
+def test_it_agrees_with_the_graded_rule(seed, alpha, log_cond, ur5):
+    """On W with cond 1e3 … 1e7 (random, or the UR5's near-singular posture turned about the normal), across
+    both regimes of incidence: worthwhile exactly where the graded rule is, and where it settles, the velocity
+    change W P of the numpy graded rule within their error estimates (or rtol, which both promise). Where it
+    settles, it needs at most 128 nodes, against 6 × (32 + 64) graded ones."""
+    rng = np.random.default_rng(seed)
+    W = anisotropic_delassus(rng, log_cond, ur5)
+    law = mbi.RoughLaw(mbi.Cone(alpha), 0.5)
+    for u in unit_velocities(rng, 7):
+        U = u[None]
+        assert PolePass().worthwhile(law.spec, W, U) == Graded().worthwhile(law.spec, W, U)
+        fast = PolePass().average(law.spec, W, U)
+        if fast is None:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mbi.AccuracyWarning)  # where numpy stalls, its error says by how much
+            slow = Graded().average(law.spec, W, U)
+        assert slow is not None and fast.method == "pole-pass" and fast.nodes <= 128
+        bound = 10 * max(law.rtol, fast.error[0], slow.error[0])
+        assert relative_du(fast.P, slow.P, W)[0] <= bound
+        assert fast.error[0] <= law.rtol or fast.error[0] <= 100 * np.finfo(float).eps * math.sqrt(fast.nodes)
+
+
+@given(seeds, st.floats(0.05, 1.5), st.floats(2.0, 7.0))
+def test_the_zeros_are_those_of_q_inside_the_disk(seed, alpha, log_cond):
+    """ring_zero finds, from a minimum of q on the ring and its width, a zero of q(z) = m(z)ᵀWm(z) inside the
+    unit disk (their pairs a, 1/ā), within the width of the peak from the circle, at the minimum's azimuth."""
+    rng = np.random.default_rng(seed)
+    W = anisotropic_delassus(rng, log_cond, False)
+    s, c = math.sin(alpha), math.cos(alpha)
+    phi = np.linspace(0.0, 2 * math.pi, 4097)[:-1]
+    m = np.stack([s * np.cos(phi), s * np.sin(phi), np.full(phi.size, c)])
+    q = np.einsum("ik,ij,jk->k", m, W, m)
+    i = int(np.argmin(q))
+    d2 = (q[i - 1] - 2 * q[i] + q[(i + 1) % q.size]) / (phi[1] - phi[0]) ** 2
+    width = math.sqrt(2 * q[i] / d2)
+    a = ring_zero(s, c, W, phi[i], width)
+    assert a != 0 and abs(a) < 1
+    scale = np.abs(W).sum()
+    assert abs(_q(alpha, W, a)) <= 1e-13 * scale
+    assert abs(_q(alpha, W, 1 / a.conjugate())) <= 1e-12 * scale
+    if width < 0.05:  # a narrow peak: the zero is where the quadratic model of q puts it
+        assert abs(a - cmath.exp(complex(-width, phi[i]))) <= 0.2 * width + 2 * (phi[1] - phi[0])
+
+
+def test_a_near_singular_arm_takes_out_the_poles():
+    """The UR5 upright with the elbow straight (W's eigenvalues 1e7 apart): "auto" takes the poles out, in one
+    compiled call, with 16 + 32 nodes; its impulse is the numpy graded rule's (6 × 64 nodes a piece) to rtol,
+    and a reference of 1024 graded nodes a piece agrees with both."""
+    mech = mechanism("ur5")
+    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    contact = mbi.PointContact("tool0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)  # further micro-impacts follow: not the point here
+        res = mbi.impact(mech, UPRIGHT_UR5, v, contact, law)
+        graded = mbi.impact(mech, UPRIGHT_UR5, v, contact, law.replace(method="graded"))
+        fine = mbi.impact(mech, UPRIGHT_UR5, v, contact, law.replace(nodes=1024))
+    assert res.method == "pole-pass" and res.nodes == 32 and graded.method == "graded"
+    W = res.J @ np.linalg.solve(res.A, res.J.T)
+    for ref in (graded, fine):
+        assert relative_du(res.P[None], ref.P[None], W)[0] <= 1e-12
+    assert res.error_estimate <= 1e-12
+    assert AUTO_ORDER.index("pole-pass") + 1 == AUTO_ORDER.index("graded-pass")
+    # several velocities or a fixed node count: not worthwhile, and it declines
+    W, u = upright_ur5_delassus(), np.array([[0.3, 0.1, -1.0]]) / math.sqrt(1.1)
+    assert PolePass().worthwhile(law.spec, W, u)
+    for spec, U in ((law.spec, np.vstack([u, u])), (law.replace(nodes=32).spec, u)):
+        assert not PolePass().worthwhile(spec, W, U) and PolePass().average(spec, W, U) is None
+
+
+def test_the_compiled_impact_and_the_python_method_agree_to_the_bit():
+    """mbimpact.impact's compiled cone route and the averaging registry's PolePass make the same decisions
+    with the same arithmetic: the same impulse, to the bit."""
+    mech = mechanism("ur5")
+    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mbi.NoSeparationWarning)
+        whole = mbi.impact(mech, UPRIGHT_UR5, v, mbi.PointContact("tool0"), law)
+    W = whole.J @ np.linalg.solve(whole.A, whole.J.T)
+    R = mbi.PointContact("tool0").basis()
+    out = law.replace(method="pole-pass").contact_impulses(R.T @ W @ R, (R.T @ whole.u_minus)[None])
+    assert out.method == whole.method == "pole-pass" and out.nodes == whole.nodes
+    np.testing.assert_allclose(R @ out.P[0] * 1.0, whole.P, rtol=1e-13)
+
+
+def test_where_it_does_not_apply_or_cannot_reach_rtol_the_graded_rule_runs():
+    """The configuration flux has branch points, not poles: not worthwhile (naming it fails with the reason). No
+    narrow peak (W = I): not worthwhile, and naming it fails. A peak too narrow for a plain rule of 128 nodes
+    to reach rtol: it declines and "auto" grades the rule."""
+    W = upright_ur5_delassus()
+    u = np.array([[math.sin(0.5), 0.0, -math.cos(0.5)]])
+    configuration = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux="configuration")
+    assert not PolePass().worthwhile(configuration.spec, W, u) and PolePass().average(configuration.spec, W, u) is None
+    assert configuration.contact_impulses(W, u).method == "graded-pass"
+    with pytest.raises(mbi.ParameterError, match="physical flux"):
+        configuration.replace(method="pole-pass").contact_impulses(W, u)
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    assert not PolePass().worthwhile(law.spec, np.eye(3), u)
+    with pytest.raises(mbi.ParameterError, match="narrow peak"):
+        law.replace(method="pole-pass").contact_impulses(np.eye(3), u)
+    # cond W = 1e8: where a peak is too narrow for 128 plain nodes, it declines and the graded rule settles
+    rng, declined = np.random.default_rng(1), 0
+    for _ in range(30):
+        W = spd(rng, 3, 1e8)
+        for v in unit_velocities(rng, 3):
+            if PolePass().worthwhile(law.spec, W, v[None]) and PolePass().average(law.spec, W, v[None]) is None:
+                declined += 1
+                assert law.contact_impulses(W, v[None]).method in ("graded-pass", "graded")
+    assert declined > 0
+
+
+def test_compile_kernels_covers_the_pole_kernels():
+    out = mbi.compile_kernels()
+    assert "mbimpact.averaging.pole_kernels" in out
+    assert all(t >= 0.0 for t in out["mbimpact.averaging.pole_kernels"])
