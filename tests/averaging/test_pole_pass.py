@@ -134,8 +134,40 @@ def test_where_it_does_not_apply_or_cannot_reach_rtol_the_graded_rule_runs():
         for v in unit_velocities(rng, 3):
             if PolePass().worthwhile(law.spec, W, v[None]) and PolePass().average(law.spec, W, v[None]) is None:
                 declined += 1
-                assert law.contact_impulses(W, v[None]).method in ("graded-pass", "graded")
+                with warnings.catch_warnings():  # where the graded rule stops short of rtol, it says by how much
+                    warnings.simplefilter("ignore", mbi.AccuracyWarning)
+                    assert law.contact_impulses(W, v[None]).method in ("graded-pass", "graded")
     assert declined > 0
+
+
+def test_where_an_ulp_of_w_moves_the_answer_by_more_than_rtol_it_declines():
+    """Two cases of an independent check against a 36-digit reference (ring through W's null direction, cond
+    1e8 and 1e6): the level differences say 1e-13 and 5e-13, but an ulp of W moves q at the narrowest minimum
+    by up to ε Σ|W_ik||m_i||m_k| / q_min = 7e-10 and 5e-11 of itself (the answer by half that), and the pass
+    was off by 1.25e-11 and 5.7e-12. It declines, and "auto" grades the rule; on the UR5 stretched out the bound
+    is 6e-15 and it settles, reporting the larger of it and the level difference."""
+    cases = [
+        (1.218528392189509, 0.0,
+         [[0.31673248861830783, -0.34966763825775626, 0.6777290971885757],
+          [-0.34966763825775626, 0.6682155730113494, -0.6120507458273096],
+          [0.6777290971885757, -0.6120507458273096, 1.5158636362691456]],
+         [0.598680689532276, -0.7660333777006161, -0.2340390912427744]),
+        (0.9360861984231083, 0.5,
+         [[0.07093006100372927, 0.01502363630256826, 0.09799979273761858],
+          [0.01502363630256826, 0.06704069729018981, 0.04198085937253557],
+          [0.09799979273761858, 0.04198085937253557, 0.14245477802388087]],
+         [0.703560389273315, 0.5475829139142239, -0.4529412004165543]),
+    ]
+    for alpha, e, W, u in cases:
+        law, W, U = mbi.RoughLaw(mbi.Cone(alpha), e), np.array(W), np.array([u])
+        assert PolePass().worthwhile(law.spec, W, U) and PolePass().average(law.spec, W, U) is None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", mbi.AccuracyWarning)
+            assert law.contact_impulses(W, U).method in ("graded-pass", "graded")
+    law, W = mbi.RoughLaw(mbi.Cone(0.3), 0.5), upright_ur5_delassus()
+    U = np.array([[0.3, 0.1, -1.0]]) / math.sqrt(1.1)
+    out = PolePass().average(law.spec, W, U)
+    assert out is not None and 1e-16 < out.error[0] <= law.rtol
 
 
 def test_compile_kernels_covers_the_pole_kernels():
