@@ -65,7 +65,8 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, PolePass, GradedPass, Graded, ConePair, ConePass, SlopePass,
+    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, PolePass, GradedPass, Graded, ConePair, ConePass,
+                SlopePass,
                 Fixed, Adaptive, MonteCarlo)
 }
 

@@ -103,7 +103,8 @@ _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.
 
 
 @njit(cache=True, error_model="numpy")
-def ring_form(s: float, c: float, W: NDArray[np.float64]) -> tuple[float, float, float, float, float]:  # pragma: no cover
+def ring_form(s: float, c: float, W: NDArray[np.float64]
+              ) -> tuple[float, float, float, float, float]:  # pragma: no cover — compiled
     """q(φ) = q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ on the ring (s, c) = (sin α, cos α):
     :func:`mbimpact.common.geometry.ring_quadratic_form`, in its arithmetic."""
     return (0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2], 2 * s * c * W[0, 2], 2 * s * c * W[1, 2],

@@ -9,9 +9,10 @@ cone's plain rule (:func:`mbimpact.averaging.pole_kernels.pole_pass`): 16 and 32
 rule (:class:`~mbimpact.averaging.GradedPass`) needs 6 × (32 + 64) graded ones. Its error estimate and
 stopping rule are the adaptive rule's. The rounding of f near a peak is amplified by ~1/(n ε) in the
 plain rule (a node there weighs 2π/n, against ~ε/n in the graded rule), so the estimate rises as the peak
-narrows: at cond W ~ 1e7 (the UR5 stretched out) it settles at a few 1e-13, and where it cannot reach
-rtol it declines and the graded rule runs. The configuration flux (branch points, not poles) is left to
-the graded rule.
+narrows: at cond W ~ 1e7 (the UR5 stretched out) it settles at a few 1e-13. Its error estimate also holds
+the answer's sensitivity to an ulp of W at the peaks, which level differences do not see
+(:mod:`mbimpact.averaging.pole_kernels`). Where either exceeds rtol it declines and the graded rule runs.
+The configuration flux (branch points, not poles) is left to the graded rule.
 """
 
 from __future__ import annotations
@@ -89,9 +90,9 @@ class PolePass(Averaging):
             return None
         kernels = KERNELS.get()
         P, err = np.empty((1, 3)), np.empty(1)  # written by the kernel
-        status, nodes = kernels.pole_pass(spec.roughness.alpha, W, U,  # type: ignore[attr-defined]
-                                          CONE_KERNELS.get().rule_table(n, levels), levels, Graded.peaked, spec.e, spec.rtol,
-                                          DEGENERATE, P, err)
+        table = CONE_KERNELS.get().rule_table(n, levels)
+        status, nodes = kernels.pole_pass(spec.roughness.alpha, W, U, table, levels,  # type: ignore[attr-defined]
+                                          Graded.peaked, spec.e, spec.rtol, DEGENERATE, P, err)
         if status != kernels.SETTLED:
             return None
         return ContactImpulses(P, err, nodes, self.name)

@@ -391,16 +391,16 @@ class RoughLaw(ImpactLaw):
     def _cone_plan(self) -> tuple[Any, ...] | None:
         """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded
         rule's, the cone's and ``"pole-pass"``'s node tables and level counts, Graded.peaked, the flux, e,
-        rtol), or None where it
-        does not stand for this law's "auto": another method, a measure other than a cone, repeated
-        micro-impacts, facets other than Newton's, a fixed node count, levels short of the first pair,
-        a ``"ring"`` worthwhile for one velocity, or a subclass (which may override any step).
+        rtol), or None where it does not stand for this law's "auto": another method, a measure other than a
+        cone, repeated micro-impacts, facets other than Newton's, a fixed node count, levels short of the
+        first pair, a ``"ring"`` worthwhile for one velocity, or a subclass (which may override any step).
 
         Made again whenever what it was made of changes (the spec, ``method``, ``repeat``,
-        ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64
-        and 128 nodes for a cone; 16 … 128 for ``"pole-pass"``): a velocity that needs more is declined by the compiled call and
-        goes on with every level in Python, so that a law never builds tables up to ``max_nodes``
-        (Gauss–Legendre nodes by the thousand take seconds) for the few impacts that need them."""
+        ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64 and 128
+        nodes for a cone; 16 … 128 for ``"pole-pass"``): a velocity that needs more is declined by the
+        compiled call and goes on with every level in Python, so that a law never builds tables up to
+        ``max_nodes`` (Gauss–Legendre nodes by the thousand take seconds) for the few impacts that need
+        them."""
         key = (self.spec, self.method, self.repeat, Graded.peaked, Ring.min_rows)
         cached = getattr(self, "_cone", None)  # (a law pickled before this cache existed has none)
         if cached is not None and cached[0] == key:

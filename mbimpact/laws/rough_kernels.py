@@ -4,11 +4,11 @@ A rough impact of a mechanism runs the pipeline in three compiled steps: the met
 the laws take (:func:`mbimpact.metric.kernels.prepare_factor`), the law (2.8) by the first averaging
 method of ``"auto"`` that settles it, and the outcome (1.1) (:func:`mbimpact.metric.kernels.finish`).
 For one velocity on a cone the methods ``"auto"`` tries are compiled too: ``"pole-pass"`` (the physical
-flux) and then ``"graded-pass"`` where W is nearly singular and the kernels of (2.8) peak on the ring, else ``"cone-pair"`` (n and 2n nodes),
-then ``"cone-pass"`` (the further levels). Between the steps, Python's dispatch, the averaging
-registry's screens and the arrays handed back cost more than the arithmetic. :func:`cone_impact` runs
-all of it in one call, with the same arithmetic (the steps' own compiled functions) and the same
-decisions, so that its result is the three steps' to the last bit:
+flux) and then ``"graded-pass"`` where W is nearly singular and the kernels of (2.8) peak on the ring,
+else ``"cone-pair"`` (n and 2n nodes), then ``"cone-pass"`` (the further levels). Between the steps,
+Python's dispatch, the averaging registry's screens and the arrays handed back cost more than the
+arithmetic. :func:`cone_impact` runs all of it in one call, with the same arithmetic (the steps' own
+compiled functions) and the same decisions, so that its result is the three steps' to the last bit:
 
 * the poles are taken out (:func:`~mbimpact.averaging.pole_kernels.pole_levels`) where the graded
   rule would run, with the physical flux; where that does not settle, the graded rule runs;
@@ -56,8 +56,8 @@ _CONE_IMPACT = types.Tuple((_I, _I, _F, _F, _F, _F, types.boolean))(
     types.float64[::1])
 # the stacks of a batch read as any strides (a caller's V may be a view), its outputs C-contiguous
 _IN3, _OUT2 = types.Array(types.float64, 3, "A", readonly=True), types.float64[:, ::1]
-_CONE_BATCH = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, _TABLE, _I, types.boolean,
-                         _F, _F, _OUT2, types.int64[::1], types.int64[::1], _OUT2)
+_CONE_BATCH = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, _F, _F, _F, _TABLE, _I, _F, _TABLE, _I, _TABLE, _I,
+                         types.boolean, _F, _F, _OUT2, types.int64[::1], types.int64[::1], _OUT2)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -141,7 +141,8 @@ def cone_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.fl
     Returns
     -------
     status : int
-        :data:`POLE_PASS`, :data:`GRADED_PASS`, :data:`CONE_PAIR` or :data:`CONE_PASS`: settled, the result is in ``buf``;
+        :data:`POLE_PASS`, :data:`GRADED_PASS`, :data:`CONE_PAIR` or :data:`CONE_PASS`: settled, the result
+        is in ``buf``;
         :data:`DECLINED`: prepared (``buf`` as ``prepare_factor`` leaves it), not settled by these
         methods; :data:`NOT_PREPARED`: ``prepare_factor``'s status was not READY (in ``nodes``).
     nodes : int
@@ -160,7 +161,8 @@ def cone_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.flo
                R: NDArray[np.float64], degenerate: float, rank_floor: float, alpha: float,
                graded_table: NDArray[np.float64], graded_levels: int, peaked: float, cone_table: NDArray[np.float64],
                cone_levels: int, pole_table: NDArray[np.float64], pole_levels: int, configuration: bool, e: float,
-               rtol: float, buf: NDArray[np.float64], status: NDArray[np.int64], nodes: NDArray[np.int64], stats: NDArray[np.float64]
+               rtol: float, buf: NDArray[np.float64], status: NDArray[np.int64], nodes: NDArray[np.int64],
+               stats: NDArray[np.float64]
                ) -> None:  # pragma: no cover — compiled
     """:func:`cone_impact` for B impacts, each at its own configuration: row i is the call on
     ``U[i], D[i], J[i], V[i], R[i]`` and ``buf[i]``, the same arithmetic, so the same result to the bit.
