@@ -16,11 +16,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from types import ModuleType
-from typing import TYPE_CHECKING, Callable, ClassVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
 from ..common.threads import over_rows, single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
@@ -165,7 +166,9 @@ class ImpactLaw(ABC):
 
         ``factor`` is (A, U, D), A(q) and its factor as :meth:`Mechanism.factor_arrays` returns them,
         where the caller has them already (the compiled front end, :mod:`mbimpact.mechanism.front`);
-        it is read only where :meth:`reads_factor` is True.
+        it is read only where :meth:`reads_factor` is True. A caller that gives it vouches for every
+        array as the front end makes them (float64, of the shapes above: v (n,), J and R as said, A
+        and U (n, n), D (n,)): compiled kernels then take them without checking their types.
 
         :func:`mbimpact.impact` calls this. A spatial impact of a law that keeps this pipeline runs it
         compiled on Pinocchio's factor of A(q) (:func:`mbimpact.metric.kernels.prepare_factor`), with
@@ -178,12 +181,25 @@ class ImpactLaw(ABC):
         """
         if len(R) == 3 and self._compiled_route():
             kernels = METRIC_KERNELS.get()
-            A, U, D = factor if factor is not None else mech.factor_arrays(q)
+            A, U, D, prepare = self._on_factor(mech, q, factor, METRIC_KERNELS, "prepare_factor")
             buffer = np.empty(6 * len(v) + 33)  # kernels.single_size
-            status, speed, w_scale = kernels.prepare_factor(U, D, J, v, R, DEGENERATE, RANK_FLOOR, buffer)
+            status, speed, w_scale = prepare(U, D, J, v, R, DEGENERATE, RANK_FLOOR, buffer)
             if status == kernels.READY:
                 return self._finish_single(kernels, A, J, R, buffer, speed, w_scale)
         return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
+
+    @staticmethod
+    def _on_factor(mech: Mechanism, q: NDArray[np.float64], factor: tuple[NDArray[np.float64], ...] | None,
+                   kernels: KernelModule, name: str
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], Callable[..., Any]]:
+        """A(q), its factor U, D and the compiled kernel ``name`` that takes them: the caller's factor and the
+        kernel without numba's dispatch (:meth:`KernelModule.unchecked`: :meth:`apply_mechanism`'s caller
+        vouches for the arrays' types), or the mechanism's factor and the dispatching kernel."""
+        if factor is not None:
+            A, U, D = factor
+            return A, U, D, kernels.unchecked(name)
+        A, U, D = mech.factor_arrays(q)
+        return A, U, D, getattr(kernels.get(), name)
 
     def reads_factor(self) -> bool:
         """Whether a spatial impact of this law on a mechanism starts from A(q)'s factor

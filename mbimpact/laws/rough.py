@@ -348,10 +348,10 @@ class RoughLaw(ImpactLaw):
         if plan is None or len(R) != 3:
             return super().apply_mechanism(mech, q, v, J, R, factor)
         kernels = KERNELS.get()
-        A, U, D = factor if factor is not None else mech.factor_arrays(q)
+        A, U, D, call = self._on_factor(mech, q, factor, KERNELS, "cone_impact")
         buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
-        status, nodes, error, speed, w_scale, un_plus, finite = kernels.cone_impact(
-            U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan, buffer)
+        status, nodes, error, speed, w_scale, un_plus, finite = call(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan,
+                                                                     buffer)
         if status < kernels.DECLINED:
             return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
         if status == kernels.DECLINED:

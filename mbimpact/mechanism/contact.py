@@ -145,7 +145,7 @@ class PointContact(Contact):
     def jacobian(self, mech: Mechanism, q: NDArray[np.float64], d: int = 3
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         Jp = mech.frame_jacobian(q, mech.frame_id(self.frame), self._offset)
-        R = self._basis
+        R = self.basis()  # (a subclass's own, where it has one)
         if d.__class__ is not int:  # an array would make `d == 3` ambiguous
             d = check_dimension(d)
         if d == 3:

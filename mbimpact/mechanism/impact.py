@@ -99,6 +99,7 @@ def _front_parts(mech: Mechanism, contact: Contact) -> bool:
     """Whether the compiled front end computes what this mechanism and contact would: a point contact, and
     none of the methods it stands for overridden (the pipeline then runs the override)."""
     return (isinstance(contact, PointContact) and type(contact).jacobian is PointContact.jacobian
+            and type(contact).basis is PointContact.basis  # (its frame goes to compiled kernels unchecked)
             and all(getattr(type(mech), m) is getattr(Mechanism, m)
                     for m in ("check_state", "check_configuration", "frame_jacobian", "factor_arrays",
                               "fill_factors", "fill_frame_jacobians")))

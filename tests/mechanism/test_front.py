@@ -122,6 +122,28 @@ def test_a_contact_that_overrides_the_jacobian_keeps_its_own():
         np.testing.assert_array_equal(res.J, 2.0 * mbi.impact(mech, q, v, plain, law).J)
 
 
+def test_a_contact_that_overrides_the_basis_is_applied_as_the_pipeline_applies_it():
+    """A PointContact subclass with its own basis() is applied by the pipeline (the front end hands its
+    frame to compiled kernels unchecked), which takes that basis as the contact frame: the same bits with
+    the front end on and off."""
+
+    class Turned(mbi.PointContact):
+        def basis(self):
+            return super().basis()[:, [1, 0, 2]] * [1.0, -1.0, 1.0]
+
+    mech = mechanism("ur5")
+    q = mech.neutral() + 0.3
+    contact = Turned("tool0")
+    J = mech.point_jacobian(q, "tool0")
+    v = -J[2] / (J[2] @ J[2]) + 0.2 * J[0]
+    assert np.array_equal(contact.jacobian(mech, q)[1], contact.basis())
+    for law in LAWS[:3] + LAWS[4:5]:
+        got = outcome(mech, q, v, contact, law)
+        with front.disabled():
+            want = outcome(mech, q, v, contact, law)
+        assert_same(got, want)
+
+
 def test_factors_kept_for_later_solves_stay_right():
     """A call through the front end re-factorises the workspace: a metric made before still solves
     with its own A(q)."""
