@@ -38,7 +38,7 @@ from ..quadrature.rules import gauss_legendre
 from .slope_pass_kernels import cos_sin
 
 __all__ = ["rule_table", "cone_pair", "cone_pass", "adaptive_levels", "compensated_add", "level_decision",
-           "jit_seconds", "SETTLED",
+           "rounding_floor", "jit_seconds", "SETTLED",
            "DEGENERATE_FACET", "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
 
 # status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
@@ -154,6 +154,21 @@ def level_decision(coarse: NDArray[np.float64], fine: NDArray[np.float64], W: ND
     if stall_checks and err <= rounding * (trace * math.sqrt(norm / ref)) and err > 0.1 * previous:
         return STALLED, err
     return NOT_SETTLED, err
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def rounding_floor(P: NDArray[np.float64], W: NDArray[np.float64]) -> float:  # pragma: no cover — compiled
+    """ε tr(W) |P| / |W P| for P (1, 3): the relative error by W P that P's own rounding (ε |P|) can make
+    where W nearly annihilates P. No rule computed in float64 certifies less
+    (:func:`mbimpact.averaging.refinement.rounding_floor`)."""
+    p2, wp2 = 0.0, 0.0
+    for i in range(3):
+        wp = P[0, 0] * W[0, i] + P[0, 1] * W[1, i] + P[0, 2] * W[2, i]
+        p2 += P[0, i] * P[0, i]
+        wp2 += wp * wp
+    if not wp2 > 0.0:
+        return math.inf
+    return _EPS * (W[0, 0] + W[1, 1] + W[2, 2]) * math.sqrt(p2 / wp2)
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)

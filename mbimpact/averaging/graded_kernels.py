@@ -30,12 +30,12 @@ from numba import njit, types
 from numpy.typing import NDArray
 
 from ..quadrature.rules import gauss_legendre
-from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
+from .cone_kernels import NOT_SETTLED, compensated_add, level_decision, rounding_floor
 from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
 
-__all__ = ["rule_table", "ring_form", "ring_minima_into", "ring_peaks", "graded_pass", "graded_levels", "jit_seconds",
-           "SETTLED", "DEGENERATE_FACET",
-           "NOT_FACING", "NOT_PEAKED", "STALLED", "CAPPED"]
+__all__ = ["rule_table", "ring_form", "ring_minima_into", "minima_sensitivity", "ring_peaks", "graded_pass",
+           "graded_levels", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING", "NOT_PEAKED", "STALLED",
+           "CAPPED"]
 
 # status codes of :func:`graded_pass`: the velocity is settled to rtol, or why not (STALLED and CAPPED are
 # the adaptive rule's AccuracyWarning cases: rounding amplified by an ill-conditioned W, max_nodes)
@@ -165,6 +165,34 @@ def ring_minima_into(form: tuple[float, float, float, float, float], peaked: flo
     return k
 
 
+@njit(cache=True, error_model="numpy")
+def minima_sensitivity(s: float, c: float, W: NDArray[np.float64], phi: NDArray[np.float64], k: int,
+                       power: float) -> float:  # pragma: no cover — compiled
+    """How far the rounding of q = mᵀWm at the ring's minima can move the answer:
+    power · ε · Σ |W_ik| |m_i| |m_k| / q_min, the largest over the ``k`` minima at azimuths ``phi``
+    (:func:`mbimpact.quadrature.graded.minima_sensitivity`, in its arithmetic; inf where q_min ≤ 0).
+
+    Float64 rounds q(m) by up to ε Σ |W_ik| |m_i| |m_k|, relative to q_min at the bottom of a peak, and it
+    does so alike at every level's nodes there: two levels agree while both are off. A peak's integral
+    goes as q_min^(−power) (½ for the physical flux, 1 for the configuration flux, whose kernels go as
+    q^(−3/2)), and its relative change as power times q's. An ulp of W's own entries moves the exact
+    answer by about as much.
+    """
+    worst = 0.0
+    for j in range(k):
+        p0, p1 = s * math.cos(phi[j]), s * math.sin(phi[j])
+        qmin = (p0 * (W[0, 0] * p0 + W[0, 1] * p1 + W[0, 2] * c) + p1 * (W[1, 0] * p0 + W[1, 1] * p1 + W[1, 2] * c)
+                + c * (W[2, 0] * p0 + W[2, 1] * p1 + W[2, 2] * c))
+        if not qmin > 0.0:
+            return math.inf
+        a0, a1 = abs(p0), abs(p1)
+        size = (a0 * (abs(W[0, 0]) * a0 + abs(W[0, 1]) * a1 + abs(W[0, 2]) * c)
+                + a1 * (abs(W[1, 0]) * a0 + abs(W[1, 1]) * a1 + abs(W[1, 2]) * c)
+                + c * (abs(W[2, 0]) * a0 + abs(W[2, 1]) * a1 + abs(W[2, 2]) * c))
+        worst = max(worst, power * _EPS * size / qmin)
+    return worst
+
+
 @njit(_PEAKS, cache=True, error_model="numpy")
 def ring_peaks(alpha: float, W: NDArray[np.float64], peaked: float) -> int:  # pragma: no cover — compiled
     """How many minima of q = mᵀWm the graded rule of a cone of tilt α is cut at (1 or 2), or 0 where
@@ -282,7 +310,10 @@ def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], 
             return status, m
         start += m
         decision, err = level_decision(coarse, fine, W, rtol, pieces * m, True, previous, P, error)
-        if decision != NOT_SETTLED:  # settled (P and error written), or stalled at rounding
+        if decision == SETTLED:  # P and error written: the estimate also holds what the levels cannot see
+            error[0] = max(error[0], minima_sensitivity(s, c, W, phi_star, k, 1.0 if configuration else 0.5),
+                           rounding_floor(P, W))
+        if decision != NOT_SETTLED:  # settled, or stalled at rounding
             return decision, m
         previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
@@ -325,7 +356,10 @@ def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
         Output: the last level's impulse P = (1+e) N / D, N = ∫ w (−mᵀu / mᵀWm) m and D = ∫ w over
         the facing set, w the flux weight of (2.7).
     error : ndarray, shape (1,)
-        Output: the error estimate |W (P_m − P_{m/2})| / |W P_m|.
+        Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at its
+        minima (:func:`minima_sensitivity`) and that of P itself
+        (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`), which no level reduces and which may
+        exceed rtol.
 
     Returns
     -------

@@ -30,8 +30,11 @@ Level differences do not see how sensitive the answer is to the rounding of W it
 an ulp of W's entries moves q by up to ε Σ |W_ik| |m_i| |m_k| relative to q_min, and the peak's integral,
 which goes as q_min^(-1/2), by half that. Where this bound exceeds rtol (most velocities on rings through
 W's null direction at cond W ≳ 1e5) the pass declines (STALLED) and the graded rule decides; elsewhere the
-reported error is the larger of the level difference and the bound. An independent check against a
-36-digit reference (550 cases, cond 1e3–1e8) found the true error within half the bound in every case.
+reported error is the largest of the level difference, this bound
+(:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`) and the rounding of P itself where W
+nearly annihilates it (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`). An independent check
+against a 36-digit reference (550 cases, cond 1e3–1e8) found the true error within half the first bound
+in every case.
 
 The configuration flux (kernels m / q^{3/2}) has branch points instead of poles: it is not handled here.
 The module is imported on first use only (numba costs ~0.3 s to import). Run with
@@ -48,16 +51,16 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from .cone_kernels import NOT_SETTLED, level_decision
-from .graded_kernels import (CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, SETTLED, STALLED, ring_form,
-                             ring_minima_into)
+from .cone_kernels import NOT_SETTLED, level_decision, rounding_floor
+from .graded_kernels import (CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, SETTLED, STALLED, minima_sensitivity,
+                             ring_form, ring_minima_into)
 
 __all__ = ["pole_levels", "pole_pass", "ring_zero", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
            "NOT_PEAKED", "STALLED", "CAPPED", "UNRESOLVED"]
 
 #: Status of :func:`pole_levels` where a zero of q near a minimum could not be resolved (Newton did not
 #: converge, or two minima led to one zero): the graded rule takes over.
-UNRESOLVED = 6
+UNRESOLVED = 7
 
 # machine epsilon (a constant of float64, safe to freeze into the compiled code)
 _EPS = float(np.finfo(float).eps)
@@ -118,20 +121,10 @@ def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
     if k == 0:
         return NOT_PEAKED, 0
     # how far an ulp of W's entries moves the answer through q at each minimum (level differences do not see
-    # it): beyond rtol the graded rule decides
-    sensitivity = 0.0
-    for j in range(k):
-        p0, p1 = s * math.cos(phi_star[j]), s * math.sin(phi_star[j])
-        qmin = (p0 * (W[0, 0] * p0 + W[0, 1] * p1 + W[0, 2] * c) + p1 * (W[1, 0] * p0 + W[1, 1] * p1 + W[1, 2] * c)
-                + c * (W[2, 0] * p0 + W[2, 1] * p1 + W[2, 2] * c))
-        a0, a1 = abs(p0), abs(p1)
-        size = (a0 * (abs(W[0, 0]) * a0 + abs(W[0, 1]) * a1 + abs(W[0, 2]) * c)
-                + a1 * (abs(W[1, 0]) * a0 + abs(W[1, 1]) * a1 + abs(W[1, 2]) * c)
-                + c * (abs(W[2, 0]) * a0 + abs(W[2, 1]) * a1 + abs(W[2, 2]) * c))
-        if not qmin > 0.0:
-            return UNRESOLVED, 0
-        # the peak's integral goes as q_min^(-1/2): half of q's relative change, at most all of the answer
-        sensitivity = max(sensitivity, 0.5 * _EPS * size / qmin)
+    # it; the peak's integral goes as q_min^(-1/2)): beyond rtol the graded rule decides
+    sensitivity = minima_sensitivity(s, c, W, phi_star, k, 0.5)
+    if sensitivity == math.inf:
+        return UNRESOLVED, 0
     if sensitivity > rtol:
         return STALLED, 0
     ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
@@ -196,8 +189,8 @@ def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
         fine[0], fine[1], fine[2] = (1.0 + e) * n0 / d, (1.0 + e) * n1 / d, (1.0 + e) * n2 / d
         if level > 0:
             decision, err = level_decision(coarse, fine, W, rtol, m, True, previous, P, error)
-            if decision == SETTLED:  # P and error written; the estimate includes the sensitivity to W
-                error[0] = max(error[0], sensitivity)
+            if decision == SETTLED:  # P and error written; the estimate includes the sensitivity to W and P's rounding
+                error[0] = max(error[0], sensitivity, rounding_floor(P, W))
             if decision != NOT_SETTLED:  # settled, or stalled at rounding
                 return decision, m
             previous = err
@@ -245,7 +238,9 @@ def pole_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
     P : ndarray, shape (1, 3)
         Output: the last level's impulse P = (1+e) N / D.
     error : ndarray, shape (1,)
-        Output: the error estimate, |W (P_m − P_{m/2})| / |W P_m| or the sensitivity to an ulp of W if larger.
+        Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at the
+        minima (:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`) and that of P
+        (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`).
 
     Returns
     -------

@@ -10,9 +10,10 @@ rule (:class:`~mbimpact.averaging.GradedPass`) needs 6 × (32 + 64) graded ones.
 stopping rule are the adaptive rule's. The rounding of f near a peak is amplified by ~1/(n ε) in the
 plain rule (a node there weighs 2π/n, against ~ε/n in the graded rule), so the estimate rises as the peak
 narrows: at cond W ~ 1e7 (the UR5 stretched out) it settles at a few 1e-13. Its error estimate also holds
-the answer's sensitivity to an ulp of W at the peaks, which level differences do not see
-(:mod:`mbimpact.averaging.pole_kernels`). Where either exceeds rtol it declines and the graded rule runs.
-The configuration flux (branch points, not poles) is left to the graded rule.
+what level differences do not see (:mod:`mbimpact.averaging.pole_kernels`): the rounding of q at the peaks
+(where it exceeds rtol, the pass declines and the graded rule runs), and that of P itself where W nearly
+annihilates it (:func:`mbimpact.averaging.refinement.rounding_floor`; no rule does better, so the estimate
+just says so). The configuration flux (branch points, not poles) is left to the graded rule.
 """
 
 from __future__ import annotations

@@ -18,12 +18,14 @@ from numpy.typing import NDArray
 from ..common.geometry import EPS
 from ..errors import AccuracyWarning, warn
 from ..metric.delassus import eigen_ratio, spread_bound
+from ..quadrature.graded import minima_sensitivity, ring_minima
 from ..results.impact import ContactImpulses
 from ..roughness.base import Rule
+from ..roughness.cone import Cone
 from .base import Averaging
 from .kernels import AveragingSpec, relative_change, rule_average
 
-__all__ = ["Fixed", "Adaptive", "Graded", "peaked_rule", "refine"]
+__all__ = ["Fixed", "Adaptive", "Graded", "peaked_rule", "refine", "rounding_floor"]
 
 
 class Fixed(Averaging):
@@ -57,7 +59,10 @@ class Adaptive(Averaging):
 
 class Graded(Averaging):
     """The measure's rule graded towards the peaks of the kernels of (2.8), for a nearly
-    singular W; fixed (``nodes`` per piece) or adaptive like the plain rule.
+    singular W; fixed (``nodes`` per piece) or adaptive like the plain rule. On a
+    :class:`~mbimpact.Cone`, the adaptive rule's error estimate also holds the rounding of
+    q = mᵀWm at the ring's minima (:func:`~mbimpact.quadrature.graded.minima_sensitivity`) and
+    that of P (:func:`rounding_floor`): successive levels agree while both are off by as much.
 
     Attributes
     ----------
@@ -78,7 +83,12 @@ class Graded(Averaging):
             return None
         if spec.nodes is not None:
             return fixed(spec, W, U, rule, self.name)
-        return refine(spec, W, U, rule, spec.roughness.graded_rows or len(U), self.name)
+        sensitivity = None
+        rough = spec.roughness
+        if isinstance(rough, Cone) and W.shape == (3, 3):  # the rounding of q at the ring's minima (its peaks)
+            sensitivity = minima_sensitivity(rough.alpha, W, ring_minima(rough.alpha, W)[0],
+                                             1.0 if spec.flux == "configuration" else 0.5)
+        return refine(spec, W, U, rule, rough.graded_rows or len(U), self.name, sensitivity)
 
     def reason(self, spec: AveragingSpec) -> str:
         return f"{spec.roughness!r} has no graded rule for this W (its kernels have no narrow peak)"
@@ -108,9 +118,15 @@ def fixed(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], r
 
 
 def refine(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None, rows: int,
-           method: str) -> ContactImpulses:
+           method: str, sensitivity: float | None = None) -> ContactImpulses:
     """Adaptive refinement, ``rows`` rows at a time; one :class:`AccuracyWarning` if rounding
-    or ``max_nodes`` stopped some row short of ``rtol``."""
+    or ``max_nodes`` stopped some row short of ``rtol``.
+
+    With a ``sensitivity`` (the graded rule of a ring: :func:`~mbimpact.quadrature.graded.minima_sensitivity`),
+    the error estimates also hold what successive levels cannot see: that bound and each row's
+    :func:`rounding_floor`. No level reduces them; where they exceed rtol the estimate says so, as it
+    says where two levels agree to the rounding floor 100 ε √K above rtol (neither warns).
+    """
     P, err = np.empty_like(U), np.empty(len(U))
     nodes, limited, capped = 0, False, False
     for start in range(0, len(U), rows):
@@ -123,7 +139,19 @@ def refine(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], 
     elif limited:
         warn(AccuracyWarning, f"{spec!r}: converged to rounding at relative error {err.max():.3g} > rtol={spec.rtol:g}; "
                               "W nearly annihilates the impulse (an ill-conditioned contact), so rtol is out of reach")
+    if sensitivity is not None:
+        err = np.maximum(err, np.maximum(rounding_floor(P, W), sensitivity))
     return ContactImpulses(P, err, nodes, method)
+
+
+def rounding_floor(P: NDArray[np.float64], W: NDArray[np.float64]) -> NDArray[np.float64]:
+    """ε tr(W) |P| / |W P| for each row of P (B, d): the relative error by W P (the measure of every
+    error estimate here) that P's own rounding, ε |P|, can make where W nearly annihilates P. No rule
+    computed in float64 certifies less."""
+    WP = P @ W
+    with np.errstate(divide="ignore", invalid="ignore"):
+        floor = EPS * float(np.trace(W)) * np.sqrt(np.einsum("bd,bd->b", P, P) / np.einsum("bd,bd->b", WP, WP))
+    return np.where(np.isnan(floor), np.inf, floor)
 
 
 def level_plan(spec: AveragingSpec) -> tuple[int, int]:

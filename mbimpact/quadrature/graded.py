@@ -21,7 +21,7 @@ from ..common.geometry import EPS, facing_half_width, ring_quadratic_form
 from .rules import gauss_legendre
 
 __all__ = [
-    "ring_minima", "ring_width_bound", "ring_minima_many", "graded_azimuth_rule",
+    "ring_minima", "minima_sensitivity", "ring_width_bound", "ring_minima_many", "graded_azimuth_rule",
     "graded_tilt_rule", "peak_tilts",
 ]
 
@@ -76,6 +76,28 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
         widths.append(math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300)))
     phi_arr, eps = np.array(found), np.array(widths)
     return phi_arr, eps
+
+
+def minima_sensitivity(alpha: float, W: NDArray[np.float64], phi: NDArray[np.float64], power: float) -> float:
+    """How far the rounding of q = mᵀWm at the minima of q on the ring of tilt α can move an
+    integral of (2.8): power · ε · Σ_ik |W_ik| |m_i| |m_k| / q(m), the largest over the azimuths
+    ``phi`` (:func:`ring_minima`'s), inf where q is not positive there.
+
+    Float64 computes q(m) with an error up to ε Σ |W_ik| |m_i| |m_k|; at the bottom of a peak that is
+    a relative error of that over q_min, made alike at every node there, so that successive levels of
+    a rule agree while all are off. The peak's integral goes as q_min^(−power) (``power`` ½ for the
+    physical flux, 1 for the configuration flux), its relative change as ``power`` times q's. An ulp
+    of W's own entries moves the exact integral by as much.
+    """
+    s, c = math.sin(alpha), math.cos(alpha)
+    worst = 0.0
+    for angle in np.asarray(phi, dtype=float).tolist():
+        m = np.array([s * math.cos(angle), s * math.sin(angle), c])
+        qmin = float(m @ W @ m)
+        if not qmin > 0.0:
+            return math.inf
+        worst = max(worst, power * EPS * float(np.abs(m) @ np.abs(W) @ np.abs(m)) / qmin)
+    return worst
 
 
 def ring_width_bound(alpha: float, W: NDArray[np.float64]) -> float:
