@@ -132,6 +132,22 @@ def test_the_cli_offers_every_bench_part():
     assert all(f"'{p}'" in choices for p in PARTS)
 
 
+def test_a_warning_in_a_timed_call_names_the_timing_loop_as_a_users_loop():
+    """The bench times calls from a loop outside the package, where a user's loop stands: a warning is
+    attributed there (mbimpact.errors.warn walks up to the first frame outside the package), not after a
+    walk through the bench's own frames."""
+    import functools
+    import warnings
+
+    from mbimpact.apps.bench.common import per_call_together
+    from mbimpact.errors import NoSeparationWarning, warn
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        per_call_together({"warns": functools.partial(warn, NoSeparationWarning, "timed")}, 1e-4, rounds=1)
+    assert caught and {w.filename for w in caught} == {"<the caller's loop>"}
+
+
 def test_functions_timed_together_each_keep_their_best_round():
     from mbimpact.apps.bench.common import per_call_together
 
