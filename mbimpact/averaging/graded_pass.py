@@ -7,8 +7,8 @@ tens of nodes a piece, but in numpy ~0.5 ms a single impact, most of it array op
 search for the minima of q = mᵀWm. :class:`GradedPass` runs all of it in one call of
 :func:`mbimpact.averaging.graded_kernels.graded_pass`: the same minima, pieces, nodes, error estimate
 and stopping rule, so its result is :class:`~mbimpact.averaging.Graded`'s up to rounding, at the same
-node count; like its, the error estimate holds the rounding of q at the minima and that of P where W
-nearly annihilates it (:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`,
+node count, and its error estimate holds, as that method's does, the rounding of q at the minima and
+that of P where W nearly annihilates it (:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`,
 :func:`~mbimpact.averaging.refinement.rounding_floor`), which successive levels do not see. It declines
 where that method would decline, where it cannot reach rtol itself (rounding or ``max_nodes`` stops it
 short), and on a node where the mechanism cannot push the facet:

@@ -174,7 +174,7 @@ def test_where_an_ulp_of_w_moves_the_answer_by_more_than_rtol_it_declines():
     out = PolePass().average(law.spec, W, U)
     # settled: its level difference within rtol; its estimate holds P's rounding where W nearly annihilates it
     floor = rounding_floor(out.P, W)[0] if out is not None else math.nan
-    assert out is not None and 1e-16 < out.error[0] == max(floor, out.error[0]) <= max(law.rtol, floor)
+    assert out is not None and floor * (1 - 1e-9) <= out.error[0] <= max(law.rtol, floor) * (1 + 1e-9)
 
 
 def test_compile_kernels_covers_the_pole_kernels():
