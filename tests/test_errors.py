@@ -219,18 +219,26 @@ def test_bad_state_shapes():
         mbi.impact(mech, np.zeros(6), np.full(6, math.nan), mbi.PointContact("tool0"), mbi.NewtonLaw(0.5))
 
 
+def _a_foot_that_keeps_approaching() -> dict:
+    """A Solo12 foot pressed on the ground: the cone's impact leaves it approaching (NoSeparationWarning).
+    The names a user's code would hold, as a namespace to run such code in."""
+    solo = mbi.Mechanism.from_robot("solo12")
+    q = solo.neutral()
+    q[2] = 0.336
+    v = np.zeros(solo.nv)
+    v[[0, 2]] = 0.3, -1.0
+    return {"mbi": mbi, "solo": solo, "q": q, "v": v, "contact": mbi.PointContact("FL_FOOT"),
+            "law": mbi.RoughLaw(mbi.Cone(0.3), 0.5)}
+
+
 def test_warnings_name_the_users_line_however_deep_the_package_warns():
     # a Solo12 foot pressed on the ground keeps approaching after the cone's impact: NoSeparationWarning,
     # issued several calls deep in the package (impact → the law → its result) and named at the caller
     import inspect
     import warnings
 
-    solo = mbi.Mechanism.from_robot("solo12")
-    q = solo.neutral()
-    q[2] = 0.336
-    v = np.zeros(solo.nv)
-    v[[0, 2]] = 0.3, -1.0
-    contact, law = mbi.PointContact("FL_FOOT"), mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    namespace = _a_foot_that_keeps_approaching()
+    solo, q, v, contact, law = (namespace[k] for k in ("solo", "q", "v", "contact", "law"))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for _ in range(3):  # the same code objects again: what is decided once per code object holds
@@ -238,6 +246,31 @@ def test_warnings_name_the_users_line_however_deep_the_package_warns():
             mbi.impact(solo, q, v, contact, law)
             assert (caught[-1].category, caught[-1].filename, caught[-1].lineno) == (
                 mbi.NoSeparationWarning, __file__, line)
-        namespace = {"mbi": mbi, "solo": solo, "q": q, "v": v, "contact": contact, "law": law}
         exec(compile("\n\nmbi.impact(solo, q, v, contact, law)\n", "<user code>", "exec"), namespace)
         assert (caught[-1].filename, caught[-1].lineno) == ("<user code>", 3)
+
+
+def test_a_filter_on_the_callers_module_and_its_registry_are_those_warnings_warn_would_use():
+    # mbimpact.errors.warn hands the warning to warnings.warn_explicit with the caller's frame in hand: the
+    # module a filter matches is the caller's __name__, and the warning is recorded in the caller's
+    # __warningregistry__ (the default filter's once per line), as warnings.warn(stacklevel=...) would do
+    import re
+    import warnings
+
+    namespace = _a_foot_that_keeps_approaching()
+    solo, q, v, contact, law = (namespace[k] for k in ("solo", "q", "v", "contact", "law"))
+    code = compile("mbi.impact(solo, q, v, contact, law)\n", "<user code>", "exec")
+    namespace["__name__"] = "a_users_module"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", category=mbi.NoSeparationWarning, module=re.escape(__name__))
+        mbi.impact(solo, q, v, contact, law)
+        assert not caught  # this module's filter
+        exec(code, namespace)
+        assert len(caught) == 1 and caught[0].category is mbi.NoSeparationWarning  # another module
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        for _ in range(2):
+            exec(code, namespace)
+        assert len(caught) == 1
+        assert any(key[1] is mbi.NoSeparationWarning for key in namespace["__warningregistry__"] if key != "version")

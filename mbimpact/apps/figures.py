@@ -174,7 +174,6 @@ def plot_shadowing(profile: Profile, u: ArrayLike, ax: Any = None, rays: int = 9
             ax.plot([a[0], b[0]], [a[1], b[1]], color="C3", lw=2.5)
     ax.plot([], [], color="C3", lw=2.5, label="reached first")
     x, h = d["x"], d["h"]
-    span = float(x[-1] - x[0])
     relief = float(h.max() - h.min()) or 1.0
     top = float(h.max()) + 0.6 * relief
     slope = u[0] / -u[1]  # horizontal travel per unit of descent

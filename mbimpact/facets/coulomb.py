@@ -28,7 +28,6 @@ closed form in the tests).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 

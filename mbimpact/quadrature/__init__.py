@@ -5,7 +5,8 @@ segments split where rings start to be cut) and rules graded towards the peaks o
 the kernels of (2.8) for a nearly singular Delassus matrix (:mod:`.graded`).
 """
 
-from .graded import graded_azimuth_rule, graded_tilt_rule, peak_tilts, ring_minima, ring_minima_many, ring_width_bound
+from .graded import (graded_azimuth_rule, graded_tilt_rule, peak_tilts, peak_width_bound, ring_minima, ring_minima_many,
+                     ring_width_bound)
 from .rules import azimuth_rule, gauss_legendre, tilt_segments
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "graded_azimuth_rule",
     "graded_tilt_rule",
     "peak_tilts",
+    "peak_width_bound",
     "ring_minima",
     "ring_minima_many",
     "ring_width_bound",

@@ -12,17 +12,17 @@ integrands smooth again, so the graded rules converge geometrically whatever ε.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..common.geometry import EPS, facing_half_width, ring_quadratic_form
+from ..metric.delassus import eigen_ratio
 from .rules import gauss_legendre
 
 __all__ = [
     "ring_minima", "minima_sensitivity", "ring_width_bound", "ring_minima_many", "graded_azimuth_rule",
-    "graded_tilt_rule", "peak_tilts",
+    "graded_tilt_rule", "peak_tilts", "peak_width_bound",
 ]
 
 
@@ -292,6 +292,18 @@ def graded_tilt_rule(
     tilt = g[..., None] + np.where(sq, h * h, sign[..., None] * h)
     dtilt = np.where(sq, 2.0 * h * dh, dh)
     return tilt.reshape(B, -1), dtilt.reshape(B, -1)
+
+
+def peak_width_bound(W: NDArray[np.float64]) -> float:
+    """A lower bound of the widths of the peaks at ±w₁ and at the valley's highest point (the first
+    two columns of :func:`peak_tilts`, those that do not depend on u), in closed form.
+
+    Both widths are sqrt(q / λ) with q = mᵀWm ≥ λ₁ at a unit m and λ a Rayleigh quotient of W, ≤ λ₃:
+    neither is below sqrt(λ₁ / λ₃). :func:`~mbimpact.metric.eigen_ratio` carries an absolute error of
+    ~1e-8 at most (in units of λ₃), which the bound gives away, so that it never exceeds what
+    :func:`peak_tilts` computes. A few µs, against ~150 µs for :func:`peak_tilts` in numpy.
+    """
+    return math.sqrt(max(eigen_ratio(W) - 1e-7, 0.0))
 
 
 def peak_tilts(W: NDArray[np.float64], U: NDArray[np.float64], peaked: float

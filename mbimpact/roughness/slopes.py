@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..common.geometry import incidence_split
 from ..common.validation import as_scalar
 from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
-from ..quadrature.graded import graded_azimuth_rule, graded_tilt_rule, peak_tilts, ring_minima_many
+from ..quadrature.graded import graded_azimuth_rule, graded_tilt_rule, peak_tilts, peak_width_bound, ring_minima_many
 from ..quadrature.rules import azimuth_rule, gauss_legendre, tilt_segments
 from .base import Roughness, Rule
 
@@ -143,6 +143,9 @@ class IsotropicSlopes(Roughness):
     def graded_rule(self, W: NDArray[np.float64], peaked: float) -> Rule | None:
         if self.dim == 2:
             return functools.partial(self._graded_planar, W) if _planar_peak(W)[2] < peaked else None
+        # the closed-form bound first: it rules out most W (a foot on the ground) for a few µs
+        if peak_width_bound(W) >= peaked:
+            return None
         if not np.isfinite(peak_tilts(W, np.array([[0.0, 0.0, -1.0]]), peaked)[1][0, :2]).any():
             return None
         return functools.partial(self._graded_spatial, W, peaked)

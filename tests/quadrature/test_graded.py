@@ -19,6 +19,7 @@ from mbimpact.quadrature import (
     graded_azimuth_rule,
     graded_tilt_rule,
     peak_tilts,
+    peak_width_bound,
     ring_minima,
     ring_minima_many,
 )
@@ -238,6 +239,41 @@ def test_peak_tilts_of_a_rank_one_delassus_matrix():
     p = np.cross(u, e)
     assert tilt[0, 2] == pytest.approx(math.acos(abs(p[2]) / np.linalg.norm(p)), rel=1e-12)
     np.testing.assert_allclose(eps[0, 1:], 1e-4, rtol=1e-6)  # sqrt(δ / λ)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(-9.0, 0.0), st.floats(0.0, 1.0))
+def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid):
+    """sqrt(λ₁/λ₃) bounds the two u-independent widths of peak_tilts from below, for eigenvalues from
+    equal to 1e9 apart; so that IsotropicSlopes.graded_rule, which rules a W out by it first, decides
+    as peak_tilts alone would."""
+    rng = np.random.default_rng(seed)
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    small = 10.0**log_small
+    W = (Q * [small, small + mid * (1.0 - small), 1.0]) @ Q.T * rng.uniform(1e-3, 1e3)
+    W = (W + W.T) / 2
+    eps = peak_tilts(W, np.array([[0.0, 0.0, -1.0]]), math.inf)[1][0, :2]
+    bound = peak_width_bound(W)
+    assert bound <= eps.min()
+    assert bound >= 0.99 * math.sqrt(small) - 1e-3  # the bound is not vacuous
+    slopes = mbi.GaussianSlopes(0.3)
+    for peaked in (0.05, 0.15, 0.3):
+        assert (slopes.graded_rule(W, peaked) is None) == (not (eps < peaked).any())
+
+
+def test_a_foot_on_the_ground_is_ruled_out_by_the_bound_alone(monkeypatch):
+    """Solo12's foot on the ground (W's eigenvalues 30× apart): no peak narrower than Graded.peaked, and
+    the closed-form bound says so without peak_tilts (150 µs in numpy)."""
+    mech = mbi.Mechanism.from_robot("solo12")
+    q = mech.neutral()
+    q[2] = 0.336
+    J = mech.point_jacobian(q, "FL_FOOT")
+    W = J @ np.linalg.solve(mech.mass_matrix(q), J.T)
+    eps = peak_tilts(W, np.array([[0.0, 0.0, -1.0]]), math.inf)[1][0, :2]
+    assert peak_width_bound(W) >= mbi.averaging.Graded.peaked
+    assert eps.min() >= mbi.averaging.Graded.peaked
+    monkeypatch.setattr("mbimpact.roughness.slopes.peak_tilts", None)  # not called
+    assert mbi.GaussianSlopes(0.3).graded_rule(W, mbi.averaging.Graded.peaked) is None
 
 
 def planar_slopes_reference(measure, e, W, u, flux="physical"):
