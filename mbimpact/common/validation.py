@@ -26,6 +26,13 @@ def as_array(name: str, x: ArrayLike, ndim: int, shape: tuple[int | None, ...] |
     NonFiniteError
         A NaN or infinite entry.
     """
+    # a small finite float64 array of the right shape, as the hot paths pass, is returned as is (what the
+    # checks below return for it) after one pass in Python floats: a NaN or ±inf makes the sum non-finite,
+    # and the rare finite array whose sum overflows takes the checks (see as_vector)
+    if (type(x) is np.ndarray and x.dtype is FLOAT64 and x.ndim == ndim and x.size <= 256
+            and (shape is None or all(w is None or g == w for g, w in zip(x.shape, shape)))
+            and math.isfinite(sum(x.ravel().tolist()))):
+        return x
     if isinstance(x, (str, bytes)) or x is None:
         raise ShapeError(f"{name} must be a numeric array, got {type(x).__name__}")
     try:

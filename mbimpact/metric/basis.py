@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
-from ..errors import ParameterError, ShapeError
+from ..errors import NonFiniteError, ParameterError, ShapeError
 
 __all__ = ["local_basis"]
 
@@ -36,31 +36,27 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
         ``d`` is not an integer (an array, a string, None, 2.5).
     ShapeError
         ``d`` is not 2 or 3, the normal is zero, or the matrix is not a rotation.
+    NonFiniteError
+        A NaN or infinite entry.
     """
     if d.__class__ is not int or not (d == 2 or d == 3):  # the hot path's int costs one comparison
         d = check_dimension(d)
+    if isinstance(frame, (list, tuple)) and len(frame) == d and all(type(x) in (float, int) for x in frame):
+        # a normal written out, [0, 0, 1], as most calls give it: numpy's conversions cost more than the basis
+        # (an int beyond the float range takes the checks below, which name it)
+        entries: list[float] = list(frame)
+        n = [float(x) if type(x) is float or abs(x) < 2**1000 else math.nan for x in entries]
+        if all(map(math.isfinite, n)):
+            return _basis_of_normal(n, d)
+        if all(type(x) is float for x in entries):
+            raise NonFiniteError("frame contains NaN or infinity")
     try:
         ndim = np.ndim(frame)
     except ValueError as exc:  # ragged nested sequences
         raise ShapeError(f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}): {exc}") from None
     f = as_array("frame", frame, ndim)
     if f.shape == (d,):
-        # in floats: a basis is built on every call of ImpactLaw.apply
-        n = f.tolist()
-        big = max(abs(x) for x in n)
-        if big == 0.0:
-            raise ShapeError("the base normal n0 is the zero vector")
-        n = [x / big for x in n]  # scaled first: no under- or overflow of the norm
-        norm = math.sqrt(sum(x * x for x in n))
-        n = [x / norm for x in n]
-        if d == 2:
-            return np.array([[n[1], n[0]], [-n[0], n[1]]])
-        k = min(range(3), key=lambda i: abs(n[i]))  # the world axis least aligned with n0
-        t = [(1.0 if i == k else 0.0) - n[k] * n[i] for i in range(3)]
-        tn = math.sqrt(sum(x * x for x in t))
-        t = [x / tn for x in t]
-        b = [n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]]
-        return np.array([[t[0], b[0], n[0]], [t[1], b[1], n[1]], [t[2], b[2], n[2]]])
+        return _basis_of_normal(f.tolist(), d)
     if f.shape == (d, d):
         err = float(np.max(np.abs(f.T @ f - np.eye(d))))
         if err > 1e-9:
@@ -70,6 +66,25 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
         f"frame must be the base normal, shape ({d},), or a rotation, shape ({d}, {d}), "
         f"to match J with {d} rows; got shape {f.shape}"
     )
+
+
+def _basis_of_normal(n: list[float], d: int) -> NDArray[np.float64]:
+    """:func:`local_basis` of a finite normal, given as d Python floats (in floats: a basis is built on
+    every call of ImpactLaw.apply)."""
+    big = max(abs(x) for x in n)
+    if big == 0.0:
+        raise ShapeError("the base normal n0 is the zero vector")
+    n = [x / big for x in n]  # scaled first: no under- or overflow of the norm
+    norm = math.sqrt(sum(x * x for x in n))
+    n = [x / norm for x in n]
+    if d == 2:
+        return np.array([[n[1], n[0]], [-n[0], n[1]]])
+    k = min(range(3), key=lambda i: abs(n[i]))  # the world axis least aligned with n0
+    t = [(1.0 if i == k else 0.0) - n[k] * n[i] for i in range(3)]
+    tn = math.sqrt(sum(x * x for x in t))
+    t = [x / tn for x in t]
+    b = [n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]]
+    return np.array([[t[0], b[0], n[0]], [t[1], b[1], n[1]], [t[2], b[2], n[2]]])
 
 
 def check_dimension(d: object) -> int:
