@@ -155,18 +155,23 @@ def warn(category: type[ImpactWarning], message: str) -> None:
         if not inside:
             break
         frame, level = frame.f_back, level + 1
-    if frame is None:  # every frame is the package's (python -m mbimpact): Python's own rule past the stack
+    if frame is None:  # no frame outside the package: Python's own rule for a stack level past the stack
         warnings.warn(message, category, stacklevel=level)
         return
-    # The caller's frame is in hand: what warnings.warn(stacklevel=level) takes from it, without walking the
-    # stack a second time (~0.1 µs a frame): its file and line, its module's name and warning registry
+    # The caller's frame is in hand: what warnings.warn(stacklevel=level) takes from it (CPython 3.11's
+    # setup_context), without walking the stack a second time (~0.1 µs a frame): its file and line, its
+    # module's name and warning registry
     module_globals = frame.f_globals
-    registry = module_globals.get("__warningregistry__")
-    if registry is None:
+    registry = module_globals.get("__warningregistry__", _MISSING)
+    if registry is _MISSING:
         registry = module_globals["__warningregistry__"] = {}
-    module = module_globals.get("__name__")
-    warnings.warn_explicit(message, category, filename, frame.f_lineno,
-                           module if isinstance(module, str) else "<string>", registry)
+    module = module_globals.get("__name__", _MISSING)
+    lineno = frame.f_lineno
+    warnings.warn_explicit(message, category, filename, -1 if lineno is None else lineno,
+                           module if module is None or isinstance(module, str) else "<string>", registry)
+
+
+_MISSING = object()
 
 
 # whether an absolute file name belongs to the package (see warn): one lookup a frame

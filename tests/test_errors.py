@@ -274,3 +274,16 @@ def test_a_filter_on_the_callers_module_and_its_registry_are_those_warnings_warn
             exec(code, namespace)
         assert len(caught) == 1
         assert any(key[1] is mbi.NoSeparationWarning for key in namespace["__warningregistry__"] if key != "version")
+
+
+def test_a_warning_from_code_without_line_numbers_names_line_minus_one():
+    # warnings.warn reports line −1 where the caller's code has no line table; so does mbimpact.errors.warn
+    import warnings
+
+    namespace = _a_foot_that_keeps_approaching()
+    code = compile("mbi.impact(solo, q, v, contact, law)\n", "<no lines>", "exec").replace(co_linetable=b"")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        exec(code, namespace)
+    assert [(w.category, w.filename, w.lineno) for w in caught] == [(mbi.NoSeparationWarning, "<no lines>", -1)]
+

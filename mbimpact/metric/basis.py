@@ -41,15 +41,15 @@ def local_basis(frame: ArrayLike, d: int) -> NDArray[np.float64]:
     """
     if d.__class__ is not int or not (d == 2 or d == 3):  # the hot path's int costs one comparison
         d = check_dimension(d)
-    if isinstance(frame, (list, tuple)) and len(frame) == d and all(type(x) in (float, int) for x in frame):
+    if isinstance(frame, (list, tuple)) and len(frame) == d and all(
+            type(x) is float or (type(x) is int and -(2**63) <= x < 2**63) for x in frame):
         # a normal written out, [0, 0, 1], as most calls give it: numpy's conversions cost more than the basis
-        # (an int beyond the float range takes the checks below, which name it)
+        # (the ints numpy holds as int64; larger ones take the checks below, as do bools and numpy scalars)
         entries: list[float] = list(frame)
-        n = [float(x) if type(x) is float or abs(x) < 2**1000 else math.nan for x in entries]
-        if all(map(math.isfinite, n)):
-            return _basis_of_normal(n, d)
-        if all(type(x) is float for x in entries):
+        n = [float(x) for x in entries]
+        if not all(map(math.isfinite, n)):
             raise NonFiniteError("frame contains NaN or infinity")
+        return _basis_of_normal(n, d)
     try:
         ndim = np.ndim(frame)
     except ValueError as exc:  # ragged nested sequences

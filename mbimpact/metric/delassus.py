@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.compiled import KernelModule
-from ..common.validation import as_array
+from ..common.validation import FLOAT64, as_array
 from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 
 if TYPE_CHECKING:
@@ -179,12 +179,16 @@ class ContactMetric:
         _freeze(A, J)
 
         def solve(b: NDArray[np.float64]) -> NDArray[np.float64]:
-            # LAPACK's solve, what scipy.linalg.cho_solve calls after checks that cost a single impact more
-            # (~7 µs) than the solve: an A⁻¹ b beyond the float range comes out as inf, without a warning
-            x, info = _cholesky_solver()(L, b, lower=1)
-            if info:  # pragma: no cover — only for an illegal argument, which this closure never passes
-                raise ValueError(f"LAPACK dpotrs: illegal value in argument {-info}")
-            return x
+            # LAPACK's solve: an A⁻¹ b beyond the float range comes out as inf, without a warning. For the
+            # float64 (n,) and (n, k) right-hand sides of the package, dpotrs itself: what
+            # scipy.linalg.cho_solve calls after checks that cost a single impact more (~7 µs) than the solve
+            if type(b) is np.ndarray and b.dtype is FLOAT64 and b.ndim in (1, 2) and len(b) == len(L):
+                x, info = _cholesky_solver()(L, b, lower=1)
+                if not info:
+                    return x
+            import scipy.linalg  # deferred: the import costs more than most impacts
+
+            return scipy.linalg.cho_solve((L, True), b, check_finite=False)
 
         return cls(A, J, solve)
 

@@ -346,8 +346,13 @@ def peak_tilts(W: NDArray[np.float64], U: NDArray[np.float64], peaked: float
     t = ez - w1[2] * w1  # meridian through w1
     lam_m = float(t @ W @ t) / float(t @ t) if t @ t > 1e-12 else top
     t1, e1 = tilt_width(w1[None], max(lam_m, 1e-300))
-    tc, ec = tilt_width((ez - w3[2] * w3)[None], top)  # highest point of the valley
-    tp, ep = tilt_width(np.cross(U, w3), top)  # valley ∩ boundary of G*
+    top_point = ez - w3[2] * w3  # highest point of the valley
+    if top_point @ top_point < 1e-24:  # w₃ = ±n⁰: the valley is the horizon, all of it at tilt π/2; w₁ lies on it
+        top_point = w1
+    tc, ec = tilt_width(top_point[None], top)
+    meet = np.cross(U, w3)  # valley ∩ boundary of G*
+    meet[np.einsum("bi,bi->b", meet, meet) < 1e-24] = top_point  # u ∥ w₃: the boundary is the valley
+    tp, ep = tilt_width(meet, top)
     B = len(U)
     tilt = np.column_stack([np.full(B, t1[0]), np.full(B, tc[0]), tp])
     eps = np.column_stack([np.full(B, e1[0]), np.full(B, ec[0]), ep])

@@ -29,6 +29,11 @@ def test_the_metric_solves_as_scipys_cholesky_solve(n, rng):
     for b in (J.T, rng.normal(size=n), rng.normal(size=(n, 5))):
         np.testing.assert_array_equal(metric.solve(b), scipy.linalg.cho_solve((L, True), b, check_finite=False))
     np.testing.assert_array_equal(metric.AinvJt, scipy.linalg.cho_solve((L, True), J.T, check_finite=False))
+    # other right-hand sides (complex, a stack, a list) take scipy's cho_solve itself
+    b = rng.normal(size=n) + 1j * rng.normal(size=n)
+    np.testing.assert_array_equal(metric.solve(b), scipy.linalg.cho_solve((L, True), b, check_finite=False))
+    b = rng.normal(size=n).tolist()
+    np.testing.assert_array_equal(metric.solve(b), scipy.linalg.cho_solve((L, True), b, check_finite=False))
 
 
 _ENTRY = st.one_of(st.floats(-1e300, 1e300, allow_nan=False), st.integers(-10, 10))
@@ -57,7 +62,8 @@ def test_a_normal_written_out_gives_the_basis_of_the_same_normal_as_an_array(nor
 
 @pytest.mark.parametrize("frame, error", [
     ([0.0, 0.0, math.nan], mbi.NonFiniteError), ((0.0, math.inf, 1.0), mbi.NonFiniteError),
-    ([0, 0, 10**400], mbi.ShapeError), ([0, 0, 0], mbi.ShapeError), ([0.0, 1.0], mbi.ShapeError),
+    ([0, 0, 10**400], mbi.ShapeError), ([0, 0, 2**70], mbi.ShapeError), ([2**64, 1.0, 1], mbi.ShapeError),
+    ([0, 0, -(2**63) - 1], mbi.ShapeError), ([0, 0, 0], mbi.ShapeError), ([0.0, 1.0], mbi.ShapeError),
 ])
 def test_a_normal_written_out_that_is_not_one_is_named(frame, error):
     with pytest.raises(error):

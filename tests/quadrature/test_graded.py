@@ -242,13 +242,14 @@ def test_peak_tilts_of_a_rank_one_delassus_matrix():
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.integers(0, 2**32 - 1), st.floats(-9.0, 0.0), st.floats(0.0, 1.0))
-def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid):
+@given(st.integers(0, 2**32 - 1), st.floats(-9.0, 0.0), st.floats(0.0, 1.0), st.booleans())
+def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid, aligned):
     """sqrt(λ₁/λ₃) bounds the two u-independent widths of peak_tilts from below, for eigenvalues from
-    equal to 1e9 apart; so that IsotropicSlopes.graded_rule, which rules a W out by it first, decides
-    as peak_tilts alone would."""
+    equal to 1e9 apart, in any axes and in the world's own (``aligned``: W's eigenvectors along the axes,
+    n⁰ among them); so that IsotropicSlopes.graded_rule, which rules a W out by it first, decides as
+    peak_tilts alone would."""
     rng = np.random.default_rng(seed)
-    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q = np.eye(3)[rng.permutation(3)] if aligned else np.linalg.qr(rng.normal(size=(3, 3)))[0]
     small = 10.0**log_small
     W = (Q * [small, small + mid * (1.0 - small), 1.0]) @ Q.T * rng.uniform(1e-3, 1e3)
     W = (W + W.T) / 2
@@ -259,6 +260,21 @@ def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid):
     slopes = mbi.GaussianSlopes(0.3)
     for peaked in (0.05, 0.15, 0.3):
         assert (slopes.graded_rule(W, peaked) is None) == (not (eps < peaked).any())
+
+
+@pytest.mark.parametrize("diagonal", [(1.0, 2.0, 3.0), (1.0, 1.0, 1.0), (20.0, 1.0, 0.5), (0.04, 1.0, 2.0)])
+def test_the_valley_of_a_w_whose_stiffest_axis_is_the_normal_is_the_horizon(diagonal):
+    """w₃ = n⁰: the valley w₃ᵀm = 0 is the horizon, every point of it at tilt π/2, the softest one w₁ with
+    the width sqrt(λ₁/λ₃) (not the zero vector's width 0: peak_tilts once normalised ez − w₃ᵀez w₃ = 0)."""
+    W = np.diag(diagonal)
+    lam = np.sort(np.asarray(diagonal))
+    tilt, eps = peak_tilts(W, np.array([[0.3, 0.1, -1.0], [0.0, 0.0, -1.0]]), math.inf)
+    assert np.all(eps >= peak_width_bound(W))  # every width, the one where the valley meets G*'s boundary too
+    if diagonal[2] > max(diagonal[:2]):  # the stiffest axis is n⁰ itself
+        np.testing.assert_allclose(eps[:, 1], math.sqrt(lam[0] / lam[2]), rtol=1e-14)
+        np.testing.assert_allclose(tilt[:, 1], math.pi / 2, atol=1e-15)
+        # u ∥ w₃: G*'s boundary is the valley, met everywhere; graded towards its highest point
+        assert (tilt[1, 2], eps[1, 2]) == (tilt[1, 1], eps[1, 1])
 
 
 def test_a_foot_on_the_ground_is_ruled_out_by_the_bound_alone(monkeypatch):
