@@ -315,7 +315,11 @@ def peak_tilts(W: NDArray[np.float64], U: NDArray[np.float64], peaked: float
     and, when λ₂ ≪ λ₃ too, along the valley w₃ᵀm = 0 (width sqrt(q / λ₃) across it).
     A ring of tilts sees a sharp change where it passes ±w₁, where it touches the
     valley (at its highest point, tilt asin|w₃ᵀn⁰|) and where the valley meets the
-    boundary of G* (m ∥ u × w₃), which cuts its peaks off.
+    boundary of G* (m ∥ u × w₃), which cuts its peaks off. Where w₃ = ±n⁰ the valley
+    is the horizon, all of it at tilt π/2, and w₁ stands for its highest point; where
+    u ∥ w₃ the boundary of G* is the valley, and its highest point stands for where
+    they meet. No width is below sqrt(λ₁ / λ₃) (:func:`peak_width_bound`): each is
+    sqrt(q / λ) at a unit m = w₁ or m ⟂ w₃, with λ ≤ λ₃.
 
     Parameters
     ----------
@@ -347,7 +351,7 @@ def peak_tilts(W: NDArray[np.float64], U: NDArray[np.float64], peaked: float
     lam_m = float(t @ W @ t) / float(t @ t) if t @ t > 1e-12 else top
     t1, e1 = tilt_width(w1[None], max(lam_m, 1e-300))
     top_point = ez - w3[2] * w3  # highest point of the valley
-    if top_point @ top_point < 1e-24:  # w₃ = ±n⁰: the valley is the horizon, all of it at tilt π/2; w₁ lies on it
+    if top_point @ top_point < 1e-24:  # w₃ = ±n⁰: the valley is the horizon (tilt π/2), w₁ on it
         top_point = w1
     tc, ec = tilt_width(top_point[None], top)
     meet = np.cross(U, w3)  # valley ∩ boundary of G*

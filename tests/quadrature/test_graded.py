@@ -244,18 +244,19 @@ def test_peak_tilts_of_a_rank_one_delassus_matrix():
 @settings(max_examples=200, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.floats(-9.0, 0.0), st.floats(0.0, 1.0), st.booleans())
 def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid, aligned):
-    """sqrt(λ₁/λ₃) bounds the two u-independent widths of peak_tilts from below, for eigenvalues from
-    equal to 1e9 apart, in any axes and in the world's own (``aligned``: W's eigenvectors along the axes,
-    n⁰ among them); so that IsotropicSlopes.graded_rule, which rules a W out by it first, decides as
-    peak_tilts alone would."""
+    """sqrt(λ₁/λ₃) bounds the widths of peak_tilts from below (the two u-independent ones above all), for
+    eigenvalues from equal to 1e9 apart, in any axes and in the world's own (``aligned``: W's eigenvectors
+    along the axes, n⁰ among them); so that IsotropicSlopes.graded_rule, which rules a W out by it first,
+    decides as peak_tilts alone would."""
     rng = np.random.default_rng(seed)
     Q = np.eye(3)[rng.permutation(3)] if aligned else np.linalg.qr(rng.normal(size=(3, 3)))[0]
     small = 10.0**log_small
     W = (Q * [small, small + mid * (1.0 - small), 1.0]) @ Q.T * rng.uniform(1e-3, 1e3)
     W = (W + W.T) / 2
-    eps = peak_tilts(W, np.array([[0.0, 0.0, -1.0]]), math.inf)[1][0, :2]
+    widths = peak_tilts(W, np.array([[0.0, 0.0, -1.0], [0.6, 0.0, -0.8]]), math.inf)[1]
+    eps = widths[0, :2]
     bound = peak_width_bound(W)
-    assert bound <= eps.min()
+    assert bound <= widths.min()  # the u-dependent width (the valley meeting G*'s boundary) too
     assert bound >= 0.99 * math.sqrt(small) - 1e-3  # the bound is not vacuous
     slopes = mbi.GaussianSlopes(0.3)
     for peaked in (0.05, 0.15, 0.3):
@@ -265,7 +266,7 @@ def test_peak_width_bound_is_below_the_widths_it_screens(seed, log_small, mid, a
 @pytest.mark.parametrize("diagonal", [(1.0, 2.0, 3.0), (1.0, 1.0, 1.0), (20.0, 1.0, 0.5), (0.04, 1.0, 2.0)])
 def test_the_valley_of_a_w_whose_stiffest_axis_is_the_normal_is_the_horizon(diagonal):
     """w₃ = n⁰: the valley w₃ᵀm = 0 is the horizon, every point of it at tilt π/2, the softest one w₁ with
-    the width sqrt(λ₁/λ₃) (not the zero vector's width 0: peak_tilts once normalised ez − w₃ᵀez w₃ = 0)."""
+    the width sqrt(λ₁/λ₃) (not width 0: peak_tilts once normalised the zero vector ez − w₃ᵀez w₃)."""
     W = np.diag(diagonal)
     lam = np.sort(np.asarray(diagonal))
     tilt, eps = peak_tilts(W, np.array([[0.3, 0.1, -1.0], [0.0, 0.0, -1.0]]), math.inf)
