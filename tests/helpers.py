@@ -77,6 +77,13 @@ def upright_ur5_delassus() -> np.ndarray:
     return 0.5 * (W + W.T)
 
 
+def upright_ur5_velocity() -> np.ndarray:
+    """A velocity of the UR5 at :data:`UPRIGHT_UR5` whose tool0 moves along (0.3, 0.1, −1): an oblique
+    approach at the near-singular posture."""
+    J = mechanism("ur5").point_jacobian(UPRIGHT_UR5, "tool0")
+    return np.linalg.lstsq(J, [0.3, 0.1, -1.0], rcond=None)[0]
+
+
 def impulses(law: mbi.ImpactLaw, W: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """A law's core, :meth:`~mbimpact.ImpactLaw.contact_impulses`, as (P, error estimates, nodes)."""
     out = law.contact_impulses(W, U)

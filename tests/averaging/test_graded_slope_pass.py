@@ -12,7 +12,7 @@ import mbimpact as mbi
 from mbimpact.averaging import AUTO_ORDER, Graded, GradedSlopePass
 
 from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, check_against_graded, mechanism, relative_du,
-                           seeds, spd, unit_velocities, upright_ur5_delassus)
+                           seeds, spd, unit_velocities, upright_ur5_delassus, upright_ur5_velocity)
 
 
 @given(seeds, st.floats(0.05, 1.0), st.sampled_from(["configuration", "physical"]), st.floats(3.0, 6.0),
@@ -35,7 +35,7 @@ def test_a_near_singular_arm_takes_the_compiled_graded_rule():
     """The UR5 upright with the elbow straight on Gaussian slopes: "auto" grades the rule in one compiled
     call, at the numpy graded rule's node count and impulse."""
     mech = mechanism("ur5")
-    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    v = upright_ur5_velocity()
     law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
     contact = mbi.PointContact("tool0")
     with warnings.catch_warnings():

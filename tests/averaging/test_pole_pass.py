@@ -15,7 +15,7 @@ from mbimpact.averaging.pole_kernels import ring_zero
 from mbimpact.averaging.refinement import rounding_floor
 
 from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, mechanism, relative_du, rounding_bound, seeds, spd,
-                           unit_velocities, upright_ur5_delassus)
+                           unit_velocities, upright_ur5_delassus, upright_ur5_velocity)
 
 
 def _q(alpha, W, z):
@@ -77,7 +77,7 @@ def test_a_near_singular_arm_takes_out_the_poles():
     compiled call, with 16 + 32 nodes; its impulse is the numpy graded rule's (6 × 64 nodes a piece) to rtol,
     and a reference of 1024 graded nodes a piece agrees with both."""
     mech = mechanism("ur5")
-    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    v = upright_ur5_velocity()
     law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
     contact = mbi.PointContact("tool0")
     with warnings.catch_warnings():
@@ -105,7 +105,7 @@ def test_the_compiled_impact_and_the_python_method_agree():
     the same node count, and the same impulse up to the rounding of the W and u rebuilt here (that the two
     routes agree to the bit on their own inputs, test_rough_compiled checks)."""
     mech = mechanism("ur5")
-    v = np.linalg.lstsq(mech.point_jacobian(UPRIGHT_UR5, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+    v = upright_ur5_velocity()
     law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.NoSeparationWarning)
