@@ -287,3 +287,36 @@ def test_a_warning_from_code_without_line_numbers_names_line_minus_one():
         exec(code, namespace)
     assert [(w.category, w.filename, w.lineno) for w in caught] == [(mbi.NoSeparationWarning, "<no lines>", -1)]
 
+
+
+def test_a_category_the_filters_drop_whatever_its_origin_is_ignored_without_a_walk_of_the_stack():
+    # mbimpact.errors.ignored decides only what warn_explicit would decide for any text and frame: the first
+    # filter matching the category is "ignore" and asks nothing else; otherwise warn_explicit decides
+    import re
+    import warnings
+
+    from mbimpact.errors import ignored
+
+    namespace = _a_foot_that_keeps_approaching()
+    solo, q, v, contact, law = (namespace[k] for k in ("solo", "q", "v", "contact", "law"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert not ignored(mbi.NoSeparationWarning)
+        warnings.simplefilter("ignore", mbi.ImpactWarning)  # a parent class
+        assert ignored(mbi.NoSeparationWarning) and ignored(mbi.AccuracyWarning) and not ignored(UserWarning)
+        mbi.impact(solo, q, v, contact, law)
+        assert not caught and "__warningregistry__" not in namespace
+        # a filter on the text, the module or the line before it: not decided here, and warn_explicit honours it
+        for first in ({"message": "no such text"}, {"module": re.escape("nowhere")}, {"lineno": 7}):
+            with warnings.catch_warnings():
+                warnings.filterwarnings("always", category=mbi.NoSeparationWarning, **first)
+                assert not ignored(mbi.NoSeparationWarning)
+                mbi.impact(solo, q, v, contact, law)
+        assert not caught  # none of those matched this warning: the "ignore" behind them did
+        warnings.simplefilter("error", mbi.NoSeparationWarning)
+        assert not ignored(mbi.NoSeparationWarning)
+        with pytest.raises(mbi.NoSeparationWarning):
+            mbi.impact(solo, q, v, contact, law)
+    with warnings.catch_warnings():
+        warnings.resetwarnings()  # no filter at all: Python's default action shows it
+        assert not ignored(mbi.NoSeparationWarning)

@@ -7,6 +7,8 @@ name                   what it does                                             
 ``exact``              finite sum over a finite facet set                             finite measures
 ``ring``               Fourier series of a cone's kernels at fixed W (exact)          cones, ≥ 32 rows
 ``tilt-table``         Chebyshev tables of a tilt density in the incidence (exact)    tilt densities, ≥ 1024 rows
+``laplace``            Gaussian slopes: 1/mᵀWm as ∫ e^{−τ mᵀWm} dτ, the facets in      Gaussian slopes (3-D), physical flux
+                       closed form, one compiled τ-integral left
 ``graded-slope-pass``  ``graded`` for one velocity on a tilt density, in one call     one velocity (3-D), a peak < 0.15
 ``pole-pass``          a cone's peaks as poles in closed form, the rest plain, compiled one velocity, a peak < 0.15
 ``graded-pass``        ``graded`` for one velocity on a cone, in one compiled call    one velocity, a peak < 0.15
@@ -33,6 +35,7 @@ from .cone_pass import ConePass
 from .exact import Exact, MonteCarlo
 from .graded_pass import GradedPass
 from .graded_slope_pass import GradedSlopePass
+from .laplace import Laplace
 from .pole_pass import PolePass
 from .kernels import FLUXES, AveragingSpec, Flux
 from .refinement import Adaptive, Fixed, Graded
@@ -50,6 +53,7 @@ __all__ = [
     "Exact",
     "Ring",
     "TiltTableMethod",
+    "Laplace",
     "Graded",
     "PolePass",
     "GradedPass",
@@ -65,11 +69,11 @@ __all__ = [
 #: The averaging methods by name.
 METHODS: dict[str, type[Averaging]] = {
     cls.name: cls
-    for cls in (Exact, Ring, TiltTableMethod, GradedSlopePass, PolePass, GradedPass, Graded, ConePair, ConePass,
+    for cls in (Exact, Ring, TiltTableMethod, Laplace, GradedSlopePass, PolePass, GradedPass, Graded, ConePair, ConePass,
                 SlopePass,
                 Fixed, Adaptive, MonteCarlo)
 }
 
 #: The order in which ``method="auto"`` tries them.
-AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "graded-slope-pass", "pole-pass", "graded-pass",
+AUTO_ORDER: tuple[str, ...] = ("exact", "ring", "tilt-table", "laplace", "graded-slope-pass", "pole-pass", "graded-pass",
                                "graded", "cone-pair", "cone-pass", "slope-pass", "fixed", "adaptive")

@@ -24,7 +24,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.compiled import KernelModule
+from ..common.compiled import KernelModule, kernel_array
 from ..common.geometry import DEGENERATE, incidence_split
 from ..quadrature.graded import peak_tilts
 from ..results.impact import ContactImpulses
@@ -41,11 +41,6 @@ KERNELS = KernelModule("mbimpact.averaging.graded_slope_kernels")
 #: Levels whose tilt nodes the first call gets (n … 8n: 8 … 64 nodes a piece); a velocity that needs more
 #: is run again with the tilts of every level up to ``max_nodes``.
 FIRST_LEVELS = 4
-
-
-def _plain(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``a`` as C-contiguous float64 (another layout or dtype would make numba compile anew)."""
-    return a if a.dtype == np.float64 and a.flags.c_contiguous else np.ascontiguousarray(a, dtype=np.float64)
 
 
 def _tilts(rough: IsotropicSlopes, U: NDArray[np.float64], peaks: tuple[NDArray[np.float64], NDArray[np.float64]],
@@ -71,7 +66,7 @@ def _tilts(rough: IsotropicSlopes, U: NDArray[np.float64], peaks: tuple[NDArray[
     density = np.asarray(rough.density(tilt), dtype=np.float64)
     if density.shape != tilt.shape:
         return None
-    return tilt, _plain(density * dtilt[:total]), start
+    return tilt, kernel_array(density * dtilt[:total]), start
 
 
 class GradedSlopePass(Averaging):
@@ -110,7 +105,7 @@ class GradedSlopePass(Averaging):
         if levels < 2:  # max_nodes = 1: refine() computes the pair (1, 2) anyway, and warns
             return None
         kernels = KERNELS.get()
-        W, U = _plain(W), _plain(U)
+        W, U = kernel_array(W), kernel_array(U)
         table = kernels.rule_table(n, levels)
         P, err = np.empty((1, 3)), np.empty(1)  # written by the kernel
         count = min(levels, FIRST_LEVELS)

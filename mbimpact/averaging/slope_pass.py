@@ -32,7 +32,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.compiled import KernelModule
+from ..common.compiled import KernelModule, kernel_array
 from ..common.geometry import DEGENERATE
 from ..results.impact import ContactImpulses
 from ..roughness.slopes import GaussianTiltDensity, IsotropicSlopes
@@ -90,15 +90,6 @@ def _setup(spec: AveragingSpec) -> _Setup | None:
             float(rough.mass), float(spec.e), spec.flux == "configuration", float(spec.rtol), max_nodes)
 
 
-def _plain(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``a`` as the kernels are compiled for it (C-contiguous, writeable float64), copied only if
-    need be: any other layout would make numba compile another specialisation, for seconds."""
-    flags = a.flags
-    if a.dtype == np.float64 and flags.c_contiguous and flags.writeable:
-        return a
-    return np.array(a, dtype=np.float64, order="C")
-
-
 class SlopePass(Averaging):
     """One velocity on an :class:`~mbimpact.IsotropicSlopes` measure (:class:`~mbimpact.GaussianSlopes`
     and any other tilt density, spatial or planar): the adaptive rule, every level in one compiled
@@ -121,14 +112,14 @@ class SlopePass(Averaging):
             return None
         kernels = KERNELS.get()
         d, n0, levels, count, lo, hi, kind, sigma, radial, mass, e, configuration, rtol, max_nodes = setup
-        U, W = _plain(U), _plain(W)
+        U, W = kernel_array(U), kernel_array(W)
         P, state, start = np.empty((1, d)), np.empty(2), -1  # state: the last level compared, its error
         while True:
             table, density = _table(n0, count)
             if kind == kernels.TABULATED:  # the callable at every tilt node of the table's levels, in one call
                 rough = spec.roughness
                 assert isinstance(rough, IsotropicSlopes)  # as _setup found it
-                density = _plain(np.asarray(rough.density(kernels.tilt_nodes(U, lo, hi, table, n0)), dtype=np.float64))
+                density = kernel_array(np.asarray(rough.density(kernels.tilt_nodes(U, lo, hi, table, n0)), dtype=np.float64))
                 if density.shape != (2 * table.shape[1],):
                     return None
             status = kernels.slope_pass(U, W, table, n0, density, kind, lo, hi, sigma, radial, mass, e,

@@ -347,6 +347,8 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
         None when the kernels are too peaked (nearly singular W) for series within
         the limits and the budget of ``rows``: the law then uses its quadrature.
     """
+    if not build and not _CACHE:  # no table was ever built (single impacts): nothing to look up
+        return None
     W = np.ascontiguousarray(W, dtype=float)
     key = (id(rough), W.tobytes(), str(flux))
     budget = max(_BUDGET, _BUDGET_PER_ROW * rows)

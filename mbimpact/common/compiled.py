@@ -16,7 +16,10 @@ from collections.abc import Callable, Iterator
 from types import ModuleType
 from typing import Any
 
-__all__ = ["KernelModule", "KERNELS", "compile_kernels"]
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["KernelModule", "KERNELS", "compile_kernels", "kernel_array"]
 
 
 class KernelModule:
@@ -111,6 +114,16 @@ class KernelModule:
         jitted = float(module.jit_seconds())
         self._module = module
         return imported, jitted
+
+
+def kernel_array(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``a`` as the kernels are compiled for it (C-contiguous, writeable float64), copied only if need be:
+    any other layout, dtype or a read-only array would make numba compile another specialisation, for
+    seconds."""
+    flags = a.flags
+    if a.dtype == np.float64 and flags.c_contiguous and flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64, order="C")
 
 
 # The packages whose modules register kernels (imported by compile_kernels, so that all are registered).

@@ -25,7 +25,7 @@ from ..common.compiled import KernelModule
 from ..common.geometry import DEGENERATE
 from ..common.threads import over_rows, single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
-from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, warn
+from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, ignored, warn
 from ..metric.basis import local_basis
 from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
@@ -280,6 +280,8 @@ class ImpactLaw(ABC):
         """The :class:`NoSeparationWarning` of an impact whose contact still approaches (κ < 0). Its text
         is the same for every impact of this law (κ is on the result): Python's default filter then
         shows it once per line of the caller, not once per impact of a loop."""
+        if ignored(NoSeparationWarning):  # silenced in a loop of impacts: not even the text is made
+            return
         warn(NoSeparationWarning, f"{self!r}: the contact still approaches the surface after the impact "
              f"(kappa < 0, the result's kappa says by how much); {self.separation_advice()}")
 

@@ -251,6 +251,7 @@ class GaussianSlopes(IsotropicSlopes):
 
     #: Smallest RMS slope: tilts below it are below every float's resolution of a facet normal.
     min_sigma: ClassVar[float] = 1e-300
+    methods: ClassVar[tuple[str, ...]] = ("tilt-table", "laplace", *IsotropicSlopes.methods[1:])
 
     def __init__(self, sigma: float, dim: int = 3) -> None:
         sigma = as_scalar("sigma", sigma, 0.0, math.inf)

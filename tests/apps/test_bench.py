@@ -34,11 +34,11 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     assert at64 and all(float(r["error"]) <= 1e-10 for r in at64)
     sampled = [float(r["error"]) for r in singular if r["method"] in ("uniform sampling", "Monte Carlo")]
     assert sampled and min(sampled) > 1e6 * max(float(r["error"]) for r in at64)
-    # Gaussian slopes there: graded in tilt and azimuth, adaptive reaches ~1e-11; Monte Carlo does not
+    # Gaussian slopes there: graded in tilt and azimuth, and the Laplace reduction, reach ~1e-11; Monte Carlo does not
     slopes = {(r["method"], float(r["param"])): float(r["error"]) for r in acc if "GaussianSlopes" in r["case"]}
     graded = [slopes["graded tilt x azimuth", n] for n in (8, 16, 32)]
     assert graded == sorted(graded, reverse=True) and graded[-1] < 1e-10
-    assert slopes["adaptive (rtol=1e-12)", 0] < 1e-10
+    assert slopes["laplace (rtol=1e-12)", 0] < 1e-10 and slopes["graded-slope-pass (rtol=1e-12)", 0] < 1e-10
     assert slopes["Monte Carlo", 100_000] > 1e-3
     over = [r for r in rows if r["part"] == "overhead"]
     assert {r["case"] for r in over} >= {"ur5", "solo12"}

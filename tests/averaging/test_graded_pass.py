@@ -84,7 +84,8 @@ def test_compile_kernels_covers_the_graded_kernels():
 def test_auto_screens_a_single_velocity_once(monkeypatch):
     """"auto" reuses the compiled twin's screen for "graded" on one velocity (the same decision, tested
     above): the cone's twin screens in compiled code, the tilt density's with Graded's own screen, once
-    an impact; a batch is still screened by "graded" itself."""
+    an impact; a batch is still screened by "graded" itself. (The tilt density's law has the
+    configuration flux: with the physical one, Gaussian slopes go to "laplace", which needs no screen.)"""
     from mbimpact.averaging import Graded
 
     calls = []
@@ -97,7 +98,7 @@ def test_auto_screens_a_single_velocity_once(monkeypatch):
     monkeypatch.setattr(Graded, "worthwhile", counted)
     foot = np.array([[0.643, 6.4e-5, 3.3e-5], [6.4e-5, 0.328, 0.0493], [3.3e-5, 0.0493, 0.029]])  # no narrow peak
     u = np.array([[0.28734789, 0.0, -0.95782629]])
-    for law in (mbi.RoughLaw(mbi.Cone(0.3), 0.5), mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)):
+    for law in (mbi.RoughLaw(mbi.Cone(0.3), 0.5), mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, flux="configuration")):
         for W in (foot, upright_ur5_delassus()):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", mbi.AccuracyWarning)

@@ -32,9 +32,10 @@ def test_registry_names_every_method_once():
     (mbi.Cone(0.3), 40, None, "ring"),
     (mbi.Cone(0.3), 40, 16, "fixed"),
     (mbi.Cone(0.3), 1, 16, "fixed"),
-    (mbi.GaussianSlopes(0.3), 1, None, "slope-pass"),
+    (mbi.GaussianSlopes(0.3), 1, None, "laplace"),
     (mbi.GaussianSlopes(0.3, dim=2), 1, None, "slope-pass"),
-    (mbi.GaussianSlopes(0.3), 3, None, "adaptive"),
+    (mbi.GaussianSlopes(0.3), 3, None, "laplace"),
+    (mbi.GaussianSlopes(0.3), 3, 16, "fixed"),
     (mbi.GaussianSlopes(0.3), 1100, None, "tilt-table"),
     (mbi.GaussianSlopes(0.3, dim=2), 3, None, "adaptive"),
 ])
