@@ -81,8 +81,40 @@ _DECAY = 40.0
 # Φ(t) rounds to 1 and t φ(t) to below ε for t beyond this
 _WHOLE = 9.0
 
+# Veltkamp's splitting constant 2^27 + 1: a double's product with it splits it into two 26-bit halves
+_SPLIT = 134217729.0
+
 _SQRT_HALF = math.sqrt(0.5)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _two_product(x: float, y: float) -> tuple[float, float]:  # pragma: no cover — compiled
+    """x y = p + e exactly (Dekker's product, with Veltkamp's split: no fused multiply-add needed)."""
+    p = x * y
+    t = _SPLIT * x
+    xh = t - (t - x)
+    xl = x - xh
+    t = _SPLIT * y
+    yh = t - (t - y)
+    yl = y - yh
+    return p, ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
+
+
+@njit(cache=True, error_model="numpy")
+def _accurate(terms: tuple[tuple[float, float, float], ...]) -> float:  # pragma: no cover — compiled
+    """Σ x y z over the triples, as if summed in twice the working precision and rounded once (Ogita, Rump
+    and Oishi's Dot2, each x y exact, its product with z exact to ε²)."""
+    total, compensation = 0.0, 0.0
+    for x, y, z in terms:
+        h, low = _two_product(x, y)
+        p, e = _two_product(h, z)
+        e += low * z
+        t = total + p
+        b = t - total
+        compensation += ((total - (t - b)) + (p - b)) + e
+        total = t
+    return total + compensation
 
 
 @njit(cache=True, error_model="numpy")
@@ -101,28 +133,32 @@ def _half_plane(d: float, v: float) -> tuple[float, float]:  # pragma: no cover 
 
 @njit(cache=True, error_model="numpy")
 def _add_node(sums: NDArray[np.float64], x: float, c: float, a: float,
-              shape: tuple[float, float, float, float, float, float, float, float, float],
-              nx: float, ny: float, un: float) -> tuple[float, float]:  # pragma: no cover — compiled
+              shape: tuple[float, float, float, float, float, float, float, float],
+              row: tuple[float, float, float, float, float, float, float, float, float]
+              ) -> tuple[float, float]:  # pragma: no cover — compiled
     """Add the node x of the DE map τ = c exp(x − e^{−x}) to ``sums``: T(τ) dτ/dx / 2π (the vector
     integrand of N in the module docstring) to sums[0:3], τ times it to sums[3:6] (dN/dq_min), its
-    absolute values to sums[6:9] and their total to sums[9]. ``shape`` is (W_xx, W_xy, W_yy, w_x, w_y,
-    det W_t, s*_x, s*_y, q_min). Returns the node's |terms| and τ."""
-    Wxx, Wxy, Wyy, wx, wy, det_t, sx, sy, q_min = shape
+    absolute values to sums[6:9] and their total to sums[9]. Returns the node's |terms| and τ.
+
+    ``shape`` is (tr W_t, det W_t, w_x, w_y, (adj W_t w)_x, (adj W_t w)_y, s*ᵀW_t s*, |s*|², q_min) and
+    ``row`` (ν_x, ν_y, u_n, |ν|², (adj W_t ν)_x, (adj W_t ν)_y, νᵀ adj W_t ν, νᵀw, νᵀ adj W_t w), those
+    that cancel computed accurately: with M⁻¹ = (a I + 2τ adj W_t) / det M every quantity below is a
+    sum of two terms whose rounding is that of the result."""
+    tr, det_t, wx, wy, ax, ay, sws, s2, q_min = shape
+    nx, ny, un, n2, bx, by, nan, nw, naw = row
     g = math.exp(-x)
     tau = c * math.exp(x - g)
     if not tau > 0.0:
         return 0.0, 0.0
     t2 = 2.0 * tau
-    m11 = a + t2 * Wxx  # M = I/σ² + 2τ W_t
-    m12 = t2 * Wxy
-    m22 = a + t2 * Wyy
-    inv = 1.0 / (a * (a + t2 * (Wxx + Wyy)) + t2 * t2 * det_t)  # 1 / det M, of a sum of positive terms
-    mux = -t2 * (m22 * wx - m12 * wy) * inv  # μ = M⁻¹ (−2τ w)
-    muy = -t2 * (m11 * wy - m12 * wx) * inv
-    snx = (m22 * nx - m12 * ny) * inv  # Σν
-    sny = (m11 * ny - m12 * nx) * inv
-    second, first = _half_plane(nx * mux + ny * muy - un, nx * snx + ny * sny)
-    scale = math.exp(-tau * q_min - 0.5 * a * (sx * mux + sy * muy)) * math.sqrt(inv) * tau * (1.0 + g)
+    inv = 1.0 / (a * (a + t2 * tr) + t2 * t2 * det_t)  # 1 / det M, M = I/σ² + 2τ W_t: positive terms
+    mux = -t2 * (a * wx + t2 * ax) * inv  # μ = M⁻¹ (−2τ w)
+    muy = -t2 * (a * wy + t2 * ay) * inv
+    snx = (a * nx + t2 * bx) * inv  # Σν
+    sny = (a * ny + t2 * by) * inv
+    second, first = _half_plane(-t2 * (a * nw + t2 * naw) * inv - un, (a * n2 + t2 * nan) * inv)
+    # the exponent −τ q_min − s*ᵀμ / 2σ², with s*ᵀμ = 2τ (a s*ᵀW_t s* + 2τ det W_t |s*|²) / det M ≥ 0
+    scale = math.exp(-tau * q_min - 0.5 * a * t2 * (a * sws + t2 * det_t * s2) * inv) * math.sqrt(inv) * tau * (1.0 + g)
     fx = scale * (second * mux + 2.0 * first * snx)
     fy = scale * (second * muy + 2.0 * first * sny)
     fz = scale * second
@@ -170,26 +206,34 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     a = 1.0 / (sigma * sigma)
     Wxx, Wxy, Wyy, wx, wy, Wzz = W[0, 0], W[0, 1], W[1, 1], W[0, 2], W[1, 2], W[2, 2]
     trace = Wxx + Wyy + Wzz
-    det_t = Wxx * Wyy - Wxy * Wxy
+    # what cancels where W_t is nearly singular, accurately: det W_t, adj W_t w and wᵀ adj W_t w (the
+    # exact answer hardly depends on an ulp of W's entries, but these three, rounded apart, would each
+    # move it by their own error, ~1e-12 at cond W_t ~ 1e4)
+    det_t = _accurate(((Wxx, Wyy, 1.0), (Wxy, Wxy, -1.0)))
     if not (Wxx > 0.0 and det_t > 0.0):
         return DEGENERATE_FACET, 0
-    # s*: the least q(s) = sᵀW_t s + 2 sᵀw + W_zz; q_min = q(s*), the last pivot of W's LDLᵀ
-    sx = -(Wyy * wx - Wxy * wy) / det_t
-    sy = -(Wxx * wy - Wxy * wx) / det_t
-    d2 = det_t / Wxx
-    r = wy - Wxy / Wxx * wx
-    q_min = Wzz - wx * wx / Wxx - r * r / d2
+    ax = _accurate(((Wyy, wx, 1.0), (Wxy, wy, -1.0)))
+    ay = _accurate(((Wxx, wy, 1.0), (Wxy, wx, -1.0)))
+    waw = _accurate(((wx, wx, Wyy), (wx, wy, -2.0 * Wxy), (wy, wy, Wxx)))
+    # s*: the least q(s) = sᵀW_t s + 2 sᵀw + W_zz (W_t s* = −w); q_min = q(s*) = W_zz − wᵀW_t⁻¹w
+    sx, sy = -ax / det_t, -ay / det_t
+    sws = waw / det_t  # s*ᵀ W_t s* = wᵀ W_t⁻¹ w
+    q_min = Wzz - sws
     if not q_min > 1e-14 * trace * (1.0 + sx * sx + sy * sy):
         return DEGENERATE_FACET, 0
     # how far the rounding of W's entries can move q_min (as it moves q(s*))
-    dq = 4.0 * _EPS * (abs(Wxx) * sx * sx + 2.0 * abs(Wxy * sx * sy) + abs(Wyy) * sy * sy
-                       + 2.0 * abs(wx * sx) + 2.0 * abs(wy * sy) + abs(Wzz))
+    dq = _EPS * (abs(Wxx) * sx * sx + 2.0 * abs(Wxy * sx * sy) + abs(Wyy) * sy * sy
+                 + 2.0 * abs(wx * sx) + 2.0 * abs(wy * sy) + abs(Wzz))
     c = 1.0 / (trace * (1.0 + sigma * sigma))  # τ beyond which the bulk of g feels e^{−τq}
     nodes = 0
-    shape = (Wxx, Wxy, Wyy, wx, wy, det_t, sx, sy, q_min)
+    shape = (Wxx + Wyy, det_t, wx, wy, ax, ay, sws, sx * sx + sy * sy, q_min)
     coarse, fine, sums = np.empty(3), np.empty(3), np.empty(10)
     for b in range(U.shape[0]):
         nx, ny, un = -U[b, 0], -U[b, 1], U[b, 2]
+        row = (nx, ny, un, nx * nx + ny * ny, _accurate(((Wyy, nx, 1.0), (Wxy, ny, -1.0))),
+               _accurate(((Wxx, ny, 1.0), (Wxy, nx, -1.0))),
+               _accurate(((nx, nx, Wyy), (nx, ny, -2.0 * Wxy), (ny, ny, Wxx))), nx * wx + ny * wy,
+               _accurate(((nx, wx, Wyy), (nx, wy, -Wxy), (ny, wx, -Wxy), (ny, wy, Wxx))))
         # D: the same Gaussian integral at τ = 0 (precision a, centred at 0)
         D = _half_plane(-un, (nx * nx + ny * ny) / a)[1] / a
         # level 0: walk out from x = 0 until the tails are negligible; later levels fill in [lo, hi]
@@ -197,14 +241,14 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
         sums[:] = 0.0
         k = 0
         while True:  # x = 0, h, 2h, …
-            size, tau = _add_node(sums, k * h, c, a, shape, nx, ny, un)
+            size, tau = _add_node(sums, k * h, c, a, shape, row)
             k += 1
             if tau * q_min > _DECAY and size <= _TAIL * sums[9]:
                 break
         hi = k - 1
         k = 1
         while True:  # x = −h, −2h, …
-            size, tau = _add_node(sums, -k * h, c, a, shape, nx, ny, un)
+            size, tau = _add_node(sums, -k * h, c, a, shape, row)
             if tau < 1e-3 * c and size <= _TAIL * sums[9]:
                 break
             k += 1
@@ -219,7 +263,7 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
             h *= 0.5
             lo, hi = 2 * lo, 2 * hi
             for j in range(lo + 1, hi, 2):  # the new nodes, at odd multiples of the new step
-                _add_node(sums, j * h, c, a, shape, nx, ny, un)
+                _add_node(sums, j * h, c, a, shape, row)
             count = 2 * count - 1
             for i in range(3):
                 fine[i] = factor * h * sums[i]
