@@ -133,7 +133,7 @@ def _half_plane(d: float, v: float) -> tuple[float, float]:  # pragma: no cover 
 
 @njit(cache=True, error_model="numpy")
 def _add_node(sums: NDArray[np.float64], x: float, c: float, a: float,
-              shape: tuple[float, float, float, float, float, float, float, float],
+              shape: tuple[float, float, float, float, float, float, float, float, float],
               row: tuple[float, float, float, float, float, float, float, float, float]
               ) -> tuple[float, float]:  # pragma: no cover — compiled
     """Add the node x of the DE map τ = c exp(x − e^{−x}) to ``sums``: T(τ) dτ/dx / 2π (the vector
