@@ -8,7 +8,7 @@ integral, 1/q = ∫₀^∞ e^{−τq} dτ, it leaves Gaussian integrals over a h
 double-exponential map (:mod:`mbimpact.averaging.laplace_kernels`). Where a nearly singular W makes the
 kernels peak over slopes as narrow as sqrt(λ₁/λ₃) (a stretched arm), the integrand in τ only decays
 more slowly, as e^{−τ q_min}: the cost grows with log(1/q_min), not with the peak's sharpness. A
-velocity takes 40–200 evaluations of the closed form, against 10⁴–10⁵ facets for the graded product
+velocity takes 60–300 evaluations of the closed form, against 10⁴–10⁵ facets for the graded product
 rule on the same case, and the rule halves its step until two levels agree to ``rtol``.
 
 It applies to the physical flux only (with the configuration flux the weights keep a factor |s̃| that

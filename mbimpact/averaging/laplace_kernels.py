@@ -21,7 +21,7 @@ decays slowly, as e^{−τ q_min} with q_min = q(s*); the peak's width never ent
 trapezoid rule after the double-exponential map τ = c exp(x − e^{−x}): T is analytic in a strip about
 the real x-axis, so the rule converges geometrically and halving the step squares the error. Levels
 halve the step from 1/2 until two agree to rtol (:func:`mbimpact.averaging.cone_kernels.level_decision`);
-a typical velocity needs 40–200 nodes, however nearly singular W is.
+a velocity needs 60–300 nodes, growing as log(1/q_min) however narrow the peak.
 
 The closed form of T. With ξ = sᵀν, ν = −u_t (so that −s̃ᵀu = ξ − u_n, H = {ξ > u_n}) and s Gaussian
 with mean μ and covariance Σ = M⁻¹, ξ has mean ξ̄ = νᵀμ and variance v = νᵀΣν, and s − μ splits into
@@ -34,12 +34,18 @@ and density,
 and T(τ) = 2π e^{E(τ)} / sqrt(det M) times these, with the exponent written without cancellation as
 E(τ) = −τ q_min − sᵀ* μ(τ) / (2σ²). D is the same expression at τ = 0.
 
-Rounding. The peak's integral depends on q_min, which the rounding of W's entries moves by up to
-ε Σ |W_ik| |s̃*_i| |s̃*_k| (the pivot of W's factorisation is as sensitive). dN/dq_min = −∫ τ T dτ is summed
-on the same nodes, and the reported error is the largest of the level difference, this sensitivity and
-the rounding of the sums: ~ε Σ |terms| in each component of P, taken through W. No level reduces the
-last two: where they exceed rtol the estimate says so (as the graded rule's,
-:func:`mbimpact.averaging.refinement.refine`).
+Rounding. Where W_t is nearly singular, det W_t, adj W_t w, wᵀ adj W_t w and the row's adjugate forms
+lose digits to cancellation (~ε cond W_t); rounded apart, each moved the answer by its own error (up to
+3e-7 at cond W_t ~ 1e10 in an independent 30-digit check), although an ulp of W's entries moves the
+exact answer by ~ε. They are therefore summed as in twice the working precision (Ogita, Rump and
+Oishi's Dot2), and every quantity of a node is a sum of two terms of one sign or the other
+(M⁻¹ = (I/σ² + 2τ adj W_t) / det M). The peak's integral depends on q_min, which the rounding of W's
+entries moves by up to ε Σ |W_ik| |s̃*_i| |s̃*_k|. dN/dq_min = −∫ τ T dτ is summed on the same nodes, and
+the reported error is the largest of the level difference, this sensitivity and the rounding of the
+sums, 4 ε Σ |terms| in each component of P, taken through W. No level reduces the last two: where they
+exceed rtol the estimate says so (as the graded rule's, :func:`mbimpact.averaging.refinement.refine`).
+Against a 30-digit reference (176 cases, cond W_t up to 1e10, σ from 0.01 to 5, β up to 89.9°) the
+true error of every settled velocity was within its estimate.
 
 The module is imported on first use only (numba costs ~0.3 s to import). Run with
 ``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
