@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..common.compiled import KernelModule, kernel_array
+from ..common.geometry import DEGENERATE
 from ..results.impact import ContactImpulses
 from ..roughness.slopes import GaussianSlopes, GaussianTiltDensity
 from .base import Averaging
@@ -64,9 +65,10 @@ class Laplace(Averaging):
     rounding of W's entries can make through the least value of mᵀWm, and the rounding of the sums
     (each by the velocity change W P); no level reduces the last two, and where they exceed ``rtol`` the
     estimate says so, as the graded rule's does. Declines where the facet at which mᵀWm is least cannot
-    be pushed (mᵀWm ≤ 1e-14 tr W), where 7 levels do not settle (or their differences stop shrinking at
-    rounding above ``rtol``), and for RMS slopes outside [:attr:`min_sigma`, :attr:`max_sigma`]. ``nodes`` and ``max_nodes`` do not apply: ``"auto"``
-    uses it for every velocity without a fixed node count, after ``tilt-table``."""
+    be pushed (mᵀWm ≤ :data:`~mbimpact.common.geometry.DEGENERATE` tr W), where 7 levels do not settle
+    (or their differences stop shrinking at rounding above ``rtol``), and for RMS slopes outside
+    [:attr:`min_sigma`, :attr:`max_sigma`]. ``nodes`` and ``max_nodes`` do not apply: ``"auto"`` uses it
+    for every velocity without a fixed node count, after ``tilt-table``."""
 
     name: ClassVar[str] = "laplace"
     #: RMS slopes it treats: below, a² = σ⁻⁴ leaves the float range's comfort; above, the measure's
@@ -87,7 +89,7 @@ class Laplace(Averaging):
         kernels = KERNELS.get()
         P, error = np.empty(U.shape), np.empty(len(U))  # written by the kernel
         status, nodes = kernels.laplace_average(kernel_array(W), kernel_array(U), sigma, float(spec.e),
-                                                float(spec.rtol), P, error)
+                                                float(spec.rtol), DEGENERATE, P, error)
         if status != kernels.SETTLED:
             return None
         return ContactImpulses(P, error, int(nodes), self.name)

@@ -184,7 +184,8 @@ def _add_node(sums: NDArray[np.float64], x: float, c: float, a: float,
 
 @njit(cache=True, error_model="numpy")
 def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float, e: float, rtol: float,
-                    P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
+                    degenerate: float, P: NDArray[np.float64], error: NDArray[np.float64]
+                    ) -> tuple[int, int]:  # pragma: no cover — compiled
     """(2.8) with the physical flux on :class:`~mbimpact.GaussianSlopes` (σ) for unit velocities ``U``.
 
     Parameters
@@ -195,6 +196,9 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
         Unit contact velocities, local frame, ``U[:, 2] < 0``.
     sigma, e, rtol : float
         RMS slope, facet restitution, relative accuracy asked for.
+    degenerate : float
+        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed
+        (:data:`mbimpact.common.geometry.DEGENERATE`).
     P : ndarray, shape (B, 3)
         Written: the contact impulses (every row, if SETTLED).
     error : ndarray, shape (B,)
@@ -204,7 +208,7 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     -------
     (status, nodes) : (int, int)
         :data:`SETTLED`, or why not for the first row that is not: :data:`DEGENERATE_FACET` (the
-        slope where q is least is a facet the mechanism cannot push, q_min / |s̃*|² ≤ 1e-14 tr W),
+        slope where q is least is a facet the mechanism cannot push, q_min / |s̃*|² ≤ degenerate tr W),
         :data:`STALLED` (the levels' differences stopped shrinking above rtol, at rounding amplified by
         |W| |P| / |W P|) or :data:`CAPPED` (:data:`LEVELS` levels unsettled);
         and the nodes of the most refined level that ran.
@@ -225,7 +229,7 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     sx, sy = -ax / det_t, -ay / det_t
     sws = waw / det_t  # s*ᵀ W_t s* = wᵀ W_t⁻¹ w
     q_min = Wzz - sws
-    if not q_min > 1e-14 * trace * (1.0 + sx * sx + sy * sy):
+    if not q_min > degenerate * trace * (1.0 + sx * sx + sy * sy):
         return DEGENERATE_FACET, 0
     # how far the rounding of W's entries can move q_min (as it moves q(s*))
     dq = _EPS * (abs(Wxx) * sx * sx + 2.0 * abs(Wxy * sx * sy) + abs(Wyy) * sy * sy
@@ -304,6 +308,6 @@ def jit_seconds() -> float:
     """Wall time to make :func:`laplace_average` callable in this process (loaded from numba's on-disk
     cache, or compiled); later calls return near 0."""
     start = time.perf_counter()
-    laplace_average(np.diag([1e-6, 1.0, 1.0]), np.array([[0.6, 0.0, -0.8]]), 0.3, 0.5, 1e-12, np.empty((1, 3)),
-                    np.empty(1))
+    laplace_average(np.diag([1e-6, 1.0, 1.0]), np.array([[0.6, 0.0, -0.8]]), 0.3, 0.5, 1e-12, 1e-14,
+                    np.empty((1, 3)), np.empty(1))
     return time.perf_counter() - start
