@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from .cone_kernels import CAPPED, DEGENERATE_FACET, NOT_SETTLED, SETTLED, STALLED, level_decision
+from .cone_kernels import CAPPED, DEGENERATE_FACET, NOT_SETTLED, SETTLED, STALLED, compensated_add, level_decision
 
 __all__ = ["laplace_average", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "STALLED", "CAPPED", "FIRST_STEP",
            "LEVELS"]
@@ -110,16 +110,13 @@ def _two_product(x: float, y: float) -> tuple[float, float]:  # pragma: no cover
 @njit(cache=True, error_model="numpy")
 def _accurate(terms: tuple[tuple[float, float, float], ...]) -> float:  # pragma: no cover — compiled
     """Σ x y z over the triples, as if summed in twice the working precision and rounded once (Ogita, Rump
-    and Oishi's Dot2, each x y exact, its product with z exact to ε²)."""
+    and Oishi's Dot2: each x y exact, its product with z exact to ε², the sum compensated)."""
     total, compensation = 0.0, 0.0
     for x, y, z in terms:
         h, low = _two_product(x, y)
         p, e = _two_product(h, z)
-        e += low * z
-        t = total + p
-        b = t - total
-        compensation += ((total - (t - b)) + (p - b)) + e
-        total = t
+        total, compensation = compensated_add(total, compensation, p)
+        compensation += e + low * z
     return total + compensation
 
 
