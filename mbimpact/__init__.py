@@ -2,7 +2,7 @@
 
 The pipeline, one subpackage per stage:
 
-1. :mod:`mbimpact.mechanism` — Pinocchio: A(q), the contact Jacobian J(q), :func:`impact`;
+1. :mod:`mbimpact.mechanism` — Pinocchio: A(q), the contact Jacobian J(q);
    :mod:`mbimpact.geometry` — contacts from the mechanism's own collision geometry (coal);
 2. :mod:`mbimpact.metric` — the A-metric at the contact: Delassus matrix W, local frame;
 3. :mod:`mbimpact.roughness` — facets and their measure (G, P);
@@ -10,6 +10,8 @@ The pipeline, one subpackage per stage:
    :mod:`mbimpact.averaging` — the rules that compute the two integrals of (2.8);
 5. :mod:`mbimpact.laws` — Newton's law, the rough law (2.8), Coulomb's law;
 6. :mod:`mbimpact.results` — I = A Δv = Jᵀ P by (1.1), results that check themselves.
+
+:mod:`mbimpact.pipeline` assembles them for a mechanism (:func:`impact`, :func:`impact_batch`).
 
 Around it: :mod:`mbimpact.compliant` (the model resolved in time),
 :mod:`mbimpact.simulation` (scenes and their simulation, section 4),
@@ -55,8 +57,6 @@ from .mechanism import (
     Contact,
     Mechanism,
     PointContact,
-    impact,
-    impact_batch,
     model_names,
     model_path,
     models_dir,
@@ -64,6 +64,7 @@ from .mechanism import (
     robot_urdf,
 )
 from .metric import ContactMetric, local_basis
+from .pipeline import impact, impact_batch
 from .results import BatchResult, ContactImpulses, ImpactResult
 from .roughness import (
     Cone,

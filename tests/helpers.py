@@ -174,22 +174,29 @@ def rounding_bound(spec, W: np.ndarray, P: np.ndarray) -> float:
     return bound * (1 + 1e-9)
 
 
-def check_against_graded(method, law, W: np.ndarray, u: np.ndarray, cond: float, same_error: bool = True) -> None:
-    """A compiled graded rule (``method``, an Averaging instance) against the numpy graded rule for one
-    velocity ``u`` (3,): worthwhile exactly where it is, None where it declines, and otherwise the same
-    result to rounding at the same node count; a different decision (declining, one level apart, or settled
-    below the level where numpy stalled) only where the numpy rule warned or a difference sat at the stopping
-    bound or at rounding."""
+def compiled_graded(spec, W: np.ndarray, U: np.ndarray):
+    """The graded rule's compiled backend for one velocity: its impulses where it settles, else None."""
+    from mbimpact.averaging import Graded, backends
+
+    return backends.graded(spec, W, U, Graded.peaked)[1]
+
+
+def check_against_graded(fast_rule, law, W: np.ndarray, u: np.ndarray, cond: float, same_error: bool = True,
+                         name: str = "graded[compiled]") -> None:
+    """A compiled graded rule (``fast_rule(spec, W, U)``: impulses, or None where it does not settle) against
+    the numpy graded rule (Graded.reference) for one velocity ``u`` (3,): None where it has no graded rule,
+    and otherwise the same result to rounding at the same node count; a different decision (not settled, one
+    level apart, or settled below the level where numpy stalled) only where the numpy rule warned or a
+    difference sat at the stopping bound or at rounding."""
     import warnings
 
     from mbimpact.averaging import Graded
 
     eps = np.finfo(float).eps
-    assert method.worthwhile(law.spec, W, u[None]) == Graded().worthwhile(law.spec, W, u[None])
-    fast = method.average(law.spec, W, u[None])
+    fast = fast_rule(law.spec, W, u[None])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        slow = Graded().average(law.spec, W, u[None])
+        slow = Graded().reference(law.spec, W, u[None])
     if slow is None:  # no graded rule for this W: no narrow peak of the kernels
         assert fast is None
         return
@@ -198,7 +205,7 @@ def check_against_graded(method, law, W: np.ndarray, u: np.ndarray, cond: float,
     if fast is None:  # numpy warned, or its last difference was at the bound or rounding itself
         assert warned or slow.error[0] > 0.1 * stop or at_rounding(slow, law.spec, W, u)
         return
-    assert fast.method == method.name
+    assert fast.method == name
     assert fast.error[0] <= max(law.rtol, 100 * eps * math.sqrt(graded_facets(law.spec, W, u, fast.nodes)),
                                 rounding_bound(law.spec, W, fast.P))
     if warned:  # numpy stopped at rounding where the compensated sums fell below rtol

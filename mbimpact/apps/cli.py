@@ -184,8 +184,11 @@ def _run(args: argparse.Namespace) -> int:
     from ..simulation import load_scene, simulate
     from .report import summary, write_outputs
 
+    from .progress import Progress
+
     scene = load_scene(args.scene)
-    tr = simulate(scene, progress=not args.no_progress)
+    bar = Progress(100, scene.name, enabled=not args.no_progress)
+    tr = simulate(scene, progress=lambda percent, note: bar.step(note))
     print(summary(scene, tr))
     if args.out:
         for path in write_outputs(scene, tr, args.out):

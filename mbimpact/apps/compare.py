@@ -20,7 +20,8 @@ from numpy.typing import ArrayLike
 
 from ..common.validation import as_array, as_scalar
 from ..errors import NotPositiveDefiniteError, ParameterError
-from ..mechanism import PointContact, impact
+from ..mechanism import PointContact
+from ..pipeline import impact
 from ..laws import ImpactLaw
 from ..mechanism import Mechanism
 from ..metric.delassus import ContactMetric

@@ -1,13 +1,20 @@
-"""The family of averaging methods: how the two integrals of (2.8) are computed.
+"""The contract of an averaging rule: how the two integrals of (2.8) are computed.
 
-Every method turns a roughness measure, the Delassus matrix W and a batch of unit
-contact velocities U (local frame) into contact impulses. They differ in cost and
-in what they can do: exact sums over finite facet sets, quadrature refined until
-``rtol`` (plain or graded towards the peaks of a nearly singular W), closed-form
-expansions for batches at one W (ring series, tilt tables), a two-level shortcut
-for a single velocity on a cone, and Monte Carlo. :data:`mbimpact.averaging.METHODS`
-names them; ``RoughLaw(method=...)`` picks one, or ``"auto"`` tries
-:data:`mbimpact.averaging.AUTO_ORDER` and takes the first that accepts the case.
+Every rule turns a roughness measure, the Delassus matrix W and a batch of unit contact velocities U
+(local frame) into contact impulses. A subclass says, as scipy's ``OdeSolver`` does:
+
+========================== ======================================================================
+``name``                   its registry name (:data:`mbimpact.averaging.METHODS`)
+``average(spec, W, U)``    **required**: the contact impulses, or None where it declines this case
+``supports(spec)``         whether it can average the measure at all (default: the measure lists it)
+``worthwhile(spec, W, U)`` whether ``"auto"`` should try it here (default: always)
+``reason(spec)``           why it declined, for a user who named it
+``any_facet``              whether it averages any facet law (:mod:`mbimpact.facets`), or Newton's only
+``cone_step(spec)``        its step in a compiled single impact on a cone, if any
+========================== ======================================================================
+
+A compiled kernel is a backend a rule picks for itself (one velocity, Newton facets), and the result
+says so: ``result.method == "adaptive[compiled]"``.
 """
 
 from __future__ import annotations
@@ -19,35 +26,40 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..results.impact import ContactImpulses
-from .kernels import AveragingSpec
+from .compiled.codes import SKIP
+from .integrand import AveragingSpec
 
-__all__ = ["Averaging"]
+__all__ = ["Averaging", "SKIP", "compiled_label"]
+
+
+def compiled_label(name: str) -> str:
+    """The ``method`` of a result that a rule's compiled backend computed: ``"adaptive[compiled]"``."""
+    return f"{name}[compiled]"
 
 
 class Averaging(ABC):
-    """Base class of the averaging methods of (2.8).
+    """Base class of the averaging rules of (2.8) (see the module docstring for the contract).
 
     Attributes
     ----------
     name : str
         Registry name (:data:`mbimpact.averaging.METHODS`); a measure lists the names it
         supports in :attr:`mbimpact.Roughness.methods`.
+    any_facet : bool
+        True for the quadratures that evaluate any facet law (:mod:`mbimpact.facets`) at their nodes;
+        False for those that integrate Newton facets in closed form or compiled.
     """
 
     name: ClassVar[str]
-    #: The method whose ``"auto"`` screen (:meth:`worthwhile`) this one repeats for the single velocities
-    #: it treats (one row of a 3-D W, no fixed node count): ``"auto"`` then reuses the decision instead of
-    #: screening the same W twice (the compiled twins of ``"graded"``).
-    shares_screen_with: ClassVar[str | None] = None
+    any_facet: ClassVar[bool] = False
 
     def supports(self, spec: AveragingSpec) -> bool:
-        """Whether the method can average this measure at all (by default: the measure says so)."""
+        """Whether the rule can average this measure at all (by default: the measure says so)."""
         return self.name in spec.roughness.methods
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
-        """Whether ``"auto"`` should try the method on this case (its cost pays off); the
-        thresholds are documented attributes of each method. Not consulted when a user
-        picks the method by name."""
+        """Whether ``"auto"`` should try the rule on this case (its cost pays off); the thresholds
+        are documented attributes of each rule. Not consulted when a user names the rule."""
         return True
 
     @abstractmethod
@@ -65,13 +77,20 @@ class Averaging(ABC):
         Returns
         -------
         ContactImpulses or None
-            None when the method declines this case at run time (a series that does not
-            converge, a shortcut that is not conclusive); ``"auto"`` then tries the next.
+            None when the rule declines this case at run time (a series that does not converge, a
+            closed form that does not apply); ``"auto"`` then tries the next.
         """
 
     def reason(self, spec: AveragingSpec) -> str:
-        """Why :meth:`average` declined, for the error a user gets after picking it by name."""
+        """Why :meth:`average` declined, for the error a user gets after naming the rule."""
         return f"the '{self.name}' averaging cannot treat this case"
+
+    def cone_step(self, spec: AveragingSpec) -> int | None:
+        """This rule's step in a compiled single impact on a :class:`~mbimpact.Cone` of ``spec``
+        (one velocity, no fixed node count): a step code of :mod:`~mbimpact.averaging.compiled.codes`,
+        :data:`SKIP` where ``"auto"`` never runs the rule for one velocity, or None where it has no
+        compiled step (a single impact then cannot run whole compiled). None here."""
+        return None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

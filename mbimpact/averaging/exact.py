@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 
 from ..results.impact import ContactImpulses
 from .base import Averaging
-from .kernels import AveragingSpec, check_facing, facet_impulses, facet_terms, general_facets, rule_average
+from .integrand import AveragingSpec, check_facing, facet_impulses, facet_terms, general_facets, rule_average
 
 __all__ = ["Exact", "MonteCarlo"]
 

@@ -5,7 +5,7 @@ slopes s (m ∝ (s, 1)), are a Gaussian times polynomials over the half-plane of
 velocity (G*), except for the kernel 1/mᵀWm of the facets' Newton impulses. Written as a Laplace
 integral, 1/q = ∫₀^∞ e^{−τq} dτ, it leaves Gaussian integrals over a half-plane, which are closed forms
 (one erfc each), and a single integral over τ, computed by the trapezoid rule after a
-double-exponential map (:mod:`mbimpact.averaging.laplace_kernels`). Where a nearly singular W makes the
+double-exponential map (:mod:`mbimpact.averaging.compiled.laplace`). Where a nearly singular W makes the
 kernels peak over slopes as narrow as sqrt(λ₁/λ₃) (a stretched arm), the integrand in τ only decays
 more slowly, as e^{−τ q_min}: the cost grows with log(1/q_min), not with the peak's sharpness. A
 velocity takes 60–300 evaluations of the closed form, against 10⁴–10⁵ facets for the graded product
@@ -26,17 +26,16 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.compiled import KernelModule, kernel_array
+from ..common.compiled import kernel_array
 from ..common.geometry import DEGENERATE
 from ..results.impact import ContactImpulses
 from ..roughness.slopes import GaussianSlopes, GaussianTiltDensity
 from .base import Averaging
-from .kernels import AveragingSpec, general_facets
+from .compiled import LAPLACE
+from .compiled.codes import SETTLED
+from .integrand import AveragingSpec, general_facets
 
-__all__ = ["Laplace", "KERNELS"]
-
-#: The compiled kernels of :class:`Laplace` (:mod:`mbimpact.averaging.laplace_kernels`), on first use.
-KERNELS = KernelModule("mbimpact.averaging.laplace_kernels")
+__all__ = ["Laplace"]
 
 
 @functools.lru_cache(maxsize=64)
@@ -86,11 +85,11 @@ class Laplace(Averaging):
         sigma = _sigma(spec)
         if sigma is None or W.shape != (3, 3) or U.ndim != 2 or U.shape[1] != 3:
             return None
-        kernels = KERNELS.get()
+        kernels = LAPLACE.get()
         P, error = np.empty(U.shape), np.empty(len(U))  # written by the kernel
         status, nodes = kernels.laplace_average(kernel_array(W), kernel_array(U), sigma, float(spec.e),
                                                 float(spec.rtol), DEGENERATE, P, error)
-        if status != kernels.SETTLED:
+        if status != SETTLED:
             return None
         return ContactImpulses(P, error, int(nodes), self.name)
 

@@ -22,8 +22,11 @@ from ..quadrature.graded import minima_sensitivity, ring_minima
 from ..results.impact import ContactImpulses
 from ..roughness.base import Rule
 from ..roughness.cone import Cone
-from .base import Averaging
-from .kernels import AveragingSpec, relative_change, rule_average
+from . import backends
+from .base import SKIP, Averaging
+from .compiled import GRADED_CONE
+from .compiled.codes import ADAPTIVE_STEP, GRADED_STEP, PASSES_ON, SETTLED
+from .integrand import AveragingSpec, relative_change, rule_average
 
 __all__ = ["Fixed", "Adaptive", "Graded", "peaked_rule", "refine", "rounding_floor"]
 
@@ -33,7 +36,7 @@ class Fixed(Averaging):
     Chosen by ``"auto"`` when ``RoughLaw(nodes=...)`` is given."""
 
     name: ClassVar[str] = "fixed"
-    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
+    any_facet: ClassVar[bool] = True
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
         return spec.nodes is not None
@@ -41,20 +44,39 @@ class Fixed(Averaging):
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         return fixed(spec, W, U, None, self.name)
 
+    def cone_step(self, spec: AveragingSpec) -> int | None:
+        return SKIP if spec.nodes is None else None
+
 
 class Adaptive(Averaging):
     """The measure's rule, node count doubled on the rows that have not converged to ``rtol``
     (or to the rounding floor 100 ε √K of a K-facet sum); an :class:`AccuracyWarning` says
-    when ``max_nodes`` or rounding amplified by |W||P|/|WP| stopped it short."""
+    when ``max_nodes`` or rounding amplified by |W||P|/|WP| stopped it short.
+
+    One velocity with Newton facets on a :class:`~mbimpact.Cone` or an
+    :class:`~mbimpact.IsotropicSlopes` measure runs every level in one compiled call
+    (:func:`mbimpact.averaging.backends.adaptive`, ``method == "adaptive[compiled]"``); what that does
+    not settle (a facet the mechanism cannot push, rounding or ``max_nodes`` short of rtol) runs here."""
 
     name: ClassVar[str] = "adaptive"
-    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
+    any_facet: ClassVar[bool] = True
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
         return spec.nodes is None
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        if backends.one_velocity(spec, W, U):
+            status, out = backends.adaptive(spec, W, U)
+            if status == SETTLED and out is not None:
+                return out
+        return self.reference(spec, W, U)
+
+    def reference(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
+        """The rule in numpy, for any rows and facet law: the reference its compiled backend agrees with."""
         return refine(spec, W, U, None, len(U), self.name)
+
+    def cone_step(self, spec: AveragingSpec) -> int | None:
+        return ADAPTIVE_STEP
 
 
 class Graded(Averaging):
@@ -64,6 +86,11 @@ class Graded(Averaging):
     q = mᵀWm at the ring's minima (:func:`~mbimpact.quadrature.graded.minima_sensitivity`) and
     that of P (:func:`rounding_floor`): successive levels agree while both are off by as much.
 
+    One velocity with Newton facets on a :class:`~mbimpact.Cone` or a spatial
+    :class:`~mbimpact.IsotropicSlopes` measure runs every level in one compiled call
+    (:func:`mbimpact.averaging.backends.graded`, ``method == "graded[compiled]"``): the same minima,
+    pieces, nodes, error estimate and stopping rule; what it does not settle runs here.
+
     Attributes
     ----------
     peaked : float
@@ -71,13 +98,26 @@ class Graded(Averaging):
     """
 
     name: ClassVar[str] = "graded"
-    any_facet: ClassVar[bool] = True  # averages any facet law (:mod:`mbimpact.facets`)
+    any_facet: ClassVar[bool] = True
     peaked: ClassVar[float] = 0.15
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
+        if isinstance(spec.roughness, Cone) and backends.one_velocity(spec, W, U):
+            return peaked_ring(spec, W, self.peaked)
         return peaked_rule(spec, W, self.peaked, screen=True) is not None
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
+        if backends.one_velocity(spec, W, U):
+            status, out = backends.graded(spec, W, U, self.peaked)
+            if status == SETTLED and out is not None:
+                return out
+            if status in PASSES_ON[GRADED_STEP]:  # no narrow peak: the rule declines
+                return None
+        return self.reference(spec, W, U)
+
+    def reference(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
+        """The rule in numpy, for any rows and facet law (None where the measure has no graded rule for W):
+        the reference its compiled backends agree with."""
         rule = peaked_rule(spec, W, self.peaked, screen=False)
         if rule is None:
             return None
@@ -93,19 +133,35 @@ class Graded(Averaging):
     def reason(self, spec: AveragingSpec) -> str:
         return f"{spec.roughness!r} has no graded rule for this W (its kernels have no narrow peak)"
 
+    def cone_step(self, spec: AveragingSpec) -> int | None:
+        return GRADED_STEP
+
+
+def screened(W: NDArray[np.float64], peaked: float) -> bool:
+    """Whether the closed-form screens of W leave a peak narrower than ``peaked`` possible: q_min ≥ λ_min
+    and q'' ≤ 8 λ_max on a ring, so every peak width sqrt(2 q_min / q'') is ≥ sqrt(λ_min / 4 λ_max). They
+    rule out only what the measures' own peak tests rule out."""
+    if W.shape == (2, 2):  # det / tr² ≤ λ₁ / λ₂, the square of the width of the peak
+        return spread_bound(W) <= peaked**2
+    # λ_min / λ_max ≥ 4 det W / tr(W)³ (the other two eigenvalues multiply to at most (tr W / 2)²):
+    # the cheaper bound rules out most W before the closed-form eigenvalues are needed
+    return W.shape == (3, 3) and spread_bound(W) <= peaked**2 and eigen_ratio(W) <= 4 * peaked**2
+
+
+def peaked_ring(spec: AveragingSpec, W: NDArray[np.float64], peaked: float) -> bool:
+    """Whether the kernels of a cone peak on its ring narrower than ``peaked`` (:meth:`mbimpact.Cone.graded_rule`'s
+    test, compiled: numpy's search for the minima of q costs more than the whole compiled rule), after the
+    closed-form screens (:func:`screened`)."""
+    if W.shape != (3, 3) or not screened(W, peaked):
+        return False
+    return bool(GRADED_CONE.get().ring_peaks(spec.roughness.alpha, W, peaked) > 0)  # type: ignore[attr-defined]
+
 
 def peaked_rule(spec: AveragingSpec, W: NDArray[np.float64], peaked: float, screen: bool) -> Rule | None:
-    """The measure's graded rule for W, or None. With ``screen``, a W whose peaks are all
-    wider than ``peaked`` is ruled out first in closed form (q_min ≥ λ_min and q'' ≤ 8 λ_max on a
-    ring, so every peak width sqrt(2 q_min / q'') is ≥ sqrt(λ_min / 4 λ_max))."""
-    if screen:
-        if W.shape == (2, 2):  # det / tr² ≤ λ₁ / λ₂, the square of the width of the peak
-            if spread_bound(W) > peaked**2:
-                return None
-        # λ_min / λ_max ≥ 4 det W / tr(W)³ (the other two eigenvalues multiply to at most (tr W / 2)²):
-        # the cheaper bound rules out most W before the closed-form eigenvalues are needed
-        elif W.shape != (3, 3) or spread_bound(W) > peaked**2 or eigen_ratio(W) > 4 * peaked**2:
-            return None
+    """The measure's graded rule for W, or None; with ``screen``, a W that :func:`screened` rules out
+    gets None without the measure's test."""
+    if screen and not screened(W, peaked):
+        return None
     return spec.roughness.graded_rule(W, peaked)
 
 
@@ -154,30 +210,11 @@ def rounding_floor(P: NDArray[np.float64], W: NDArray[np.float64]) -> NDArray[np
     return np.where(np.isnan(floor), np.inf, floor)
 
 
-def level_plan(spec: AveragingSpec) -> tuple[int, int]:
-    """The levels :func:`refine` may run for ``spec``: n, 2n, …, 2^(L−1) n nodes a piece, every one
-    within ``max_nodes`` (n is halved when the first pair would pass it). The compiled single-velocity
-    rules build their node tables from it.
-
-    Returns
-    -------
-    (n, L) : (int, int)
-        The first level's node count and the number of levels (≥ 2 unless max_nodes = 1).
-    """
-    nodes = spec.roughness.initial_nodes
-    if 2 * nodes > spec.max_nodes:  # the first pair must stay within max_nodes
-        nodes = max(1, spec.max_nodes // 2)
-    levels = 1
-    while nodes << levels <= spec.max_nodes:
-        levels += 1
-    return nodes, levels
-
-
 def _refine_block(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, bool]:
     """:func:`refine` on one block of rows: impulses, error estimates, final node count, and
     whether rounding (``limited``) or ``max_nodes`` (``capped``) ended the refinement."""
-    nodes = level_plan(spec)[0]
+    nodes = backends.level_plan(spec)[0]
     (P, fine), (_, facets) = rule_average(spec, W, U, (nodes, 2 * nodes), rule)
     err = np.full(len(U), np.inf)
     todo = np.arange(len(U))

@@ -5,7 +5,7 @@ a fixed W, the two integrals of (2.8) over the facing arc are
 
     N(u) = ∫_arc (mᵀu)² m / (mᵀWm)^γ dφ/2π,    D(u) = ∫_arc (−mᵀu) / (mᵀWm)^δ dφ/2π,
 
-with (γ, δ) of :func:`mbimpact.averaging.kernels.kernel_powers` ((1, 0) for the
+with (γ, δ) of :func:`mbimpact.averaging.integrand.kernel_powers` ((1, 0) for the
 physical flux, (3/2, 1/2) for the configuration flux).
 mᵀu = a + b cos φ + c sin φ, so (mᵀu)² is a combination of the six monomials
 1, cos, sin, cos², cos sin, sin² whose coefficients depend on u only, and the
@@ -34,8 +34,8 @@ from numpy.typing import NDArray
 
 from ..common.geometry import DEGENERATE, EPS, facing_half_width
 from ..results.impact import ContactImpulses
-from .base import Averaging
-from .kernels import AveragingSpec, Flux, kernel_powers, quotient
+from .base import SKIP, Averaging
+from .integrand import AveragingSpec, Flux, kernel_powers, quotient
 
 __all__ = ["Ring", "RingExpansion", "ring_expansion", "unit_powers"]
 
@@ -198,3 +198,6 @@ class Ring(Averaging):
 
     def reason(self, spec: AveragingSpec) -> str:
         return "the ring's kernels are too peaked for a series of degree ≤ 1024 (a nearly singular W); use 'graded'"
+
+    def cone_step(self, spec: AveragingSpec) -> int | None:
+        return SKIP if self.min_rows > 1 else None  # a series for batches

@@ -7,7 +7,7 @@ b = sin α sin β. The kernels of (2.8) at fixed W,
 
     g_j(α, φ) = m_j / (mᵀWm)^γ  (j = 0, 1, 2),     g_3(α, φ) = (mᵀWm)^(−δ),
 
-((γ, δ) of :func:`mbimpact.averaging.kernels.kernel_powers`: (1, 0) for the
+((γ, δ) of :func:`mbimpact.averaging.integrand.kernel_powers`: (1, 0) for the
 physical flux, (3/2, 1/2) for the configuration flux) have
 Fourier series Σ_l G_jl(α) e^{ilφ}. The facing set {b cos θ < a} is symmetric in
 θ, so its integrals against e^{ilθ} are closed forms K_l(α, β) (real, even in l), and
@@ -39,7 +39,7 @@ from ..common.geometry import DEGENERATE, EPS, facing_half_width
 from ..quadrature.rules import gauss_legendre
 from ..results.impact import ContactImpulses
 from .base import Averaging
-from .kernels import AveragingSpec, Flux, kernel_powers, quotient
+from .integrand import AveragingSpec, Flux, kernel_powers, quotient
 from .ring import unit_powers
 
 if TYPE_CHECKING:

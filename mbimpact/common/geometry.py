@@ -29,7 +29,6 @@ __all__ = [
     "facing_half_width_scalar",
     "incidence_split",
     "offset_point_jacobian",
-    "rotate",
     "ring_quadratic_form",
     "scaled_norm",
 ]
@@ -95,14 +94,6 @@ def scaled_norm(x: NDArray[np.float64], axis: int = -1) -> Any:
     safe = np.where(big > 0.0, big, 1.0)
     out = np.squeeze(big, axis=axis) * np.linalg.norm(x / safe, axis=axis)
     return float(out) if out.ndim == 0 else out
-
-
-def rotate(R: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """R p for a (3, 3) R and a (3,) p, by plain products summed in index order: the bits of the
-    compiled front end (:mod:`mbimpact.mechanism.front`), where BLAS's may fuse them."""
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    x, y, z = p.tolist()
-    return np.array([a * x + b * y + c * z, d * x + e * y + f * z, g * x + h * y + i * z])
 
 
 def offset_point_jacobian(J6: NDArray[np.float64], r: NDArray[np.float64] | None) -> NDArray[np.float64]:

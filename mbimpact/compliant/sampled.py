@@ -9,7 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..averaging.kernels import check_flux
+from ..averaging.integrand import check_flux
 from ..common.geometry import scaled_norm
 from ..common.validation import as_count
 from ..mechanism.contact import PointContact

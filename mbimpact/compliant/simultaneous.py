@@ -13,7 +13,7 @@ from ..common.validation import as_count, as_scalar
 from ..errors import ParameterError
 from ..laws.base import ImpactLaw
 from ..mechanism.contact import PointContact
-from ..mechanism.impact import impact
+from ..pipeline import impact
 from ..mechanism.mechanism import Mechanism
 from .resolve import Resolved, check_contacts, check_mechanism, resolve
 

@@ -63,8 +63,8 @@ class FacetLaw(ABC):
     @property
     def newton_restitution(self) -> float | None:
         """e when the facet impulse is Newton's, −(1+e) (mᵀu / mᵀWm) m, so that the closed-form
-        averages (``ring``, ``tilt-table``, ``cone-pair``, ``cone-pass``, ``pole-pass``,
-        ``graded-pass``, ``graded-slope-pass``, ``slope-pass``) apply; None otherwise."""
+        averages (``ring``, ``tilt-table``, ``laplace``, ``poles``) and the compiled backends of the
+        refinable rules apply; None otherwise."""
         return None
 
     def impulse(self, m: NDArray[np.float64], W: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -21,8 +21,8 @@ class NewtonFacet(FacetLaw):
     The Kelvin–Voigt force (2.3) along the facet normal gives it in the limit M → ∞,
     with e = exp(−kπ/√(1−k²)) (:func:`mbimpact.e_from_k`). ``RoughLaw(roughness, e)`` is
     ``RoughLaw(roughness, facet=NewtonFacet(e))``, and only this facet law has the
-    closed-form averages (``ring``, ``tilt-table``, ``cone-pair``, ``cone-pass``, ``pole-pass``,
-    ``graded-pass``, ``graded-slope-pass``, ``slope-pass``).
+    closed-form averages (``ring``, ``tilt-table``, ``laplace``, ``poles``) and the compiled backends of
+    the refinable rules (``adaptive[compiled]``, ``graded[compiled]``).
 
     Parameters
     ----------

@@ -2,25 +2,32 @@
 
 from __future__ import annotations
 
+import functools
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..common.compiled import KernelModule
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
 from ..metric.basis import local_basis
-from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from .base import ImpactLaw
+from .compiled import CompiledImpact
 from .restitution import restitution_from
 
-if TYPE_CHECKING:
-    from ..mechanism.mechanism import Mechanism
+__all__ = ["NewtonLaw", "KERNELS"]
 
-__all__ = ["NewtonLaw"]
+#: The compiled impact of :class:`NewtonLaw` (:mod:`mbimpact.laws.newton_kernels`), loaded on first use.
+KERNELS = KernelModule("mbimpact.laws.newton_kernels")
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled(e: float) -> CompiledImpact:
+    return CompiledImpact(KERNELS, "newton_impact", "newton_batch", (e,), ("closed-form",), "newton", (e,))
+
 
 _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and products of two cannot overflow
 _HUGE = 1e150  # magnitudes below it: their products of two, and sums of those, stay finite
@@ -31,7 +38,7 @@ class NewtonLaw(ImpactLaw):
 
     Equal to ``pin.impulseDynamics(model, data, q, v, n0ᵀJ[None, :], e, 0.0)`` to rounding: the
     same factor of A(q), one solve along n⁰ᵀJ. On a mechanism (:func:`mbimpact.impact`) it needs no
-    Delassus matrix (:meth:`apply_mechanism`). The reported contact impulse is P = P_n n⁰ whatever
+    Delassus matrix (:meth:`compiled_impact`). The reported contact impulse is P = P_n n⁰ whatever
     the rank of J: the frictionless impulse is normal, and Δv = P_n A⁻¹Jᵀn⁰ needs no projection
     (other laws report the minimum-norm P of a rank-deficient J).
 
@@ -54,29 +61,11 @@ class NewtonLaw(ImpactLaw):
         P[:, -1] = -(1.0 + self.e) * U[:, -1] / W[-1, -1]
         return ContactImpulses(P, np.zeros(len(U)))
 
-    def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
-                        J: NDArray[np.float64], R: NDArray[np.float64],
-                        factor: tuple[NDArray[np.float64], ...] | None = None) -> ImpactResult:
-        """:meth:`apply_metric` without the metric: Newton's impulse needs A⁻¹ along n⁰ᵀJ only, one
-        solve with Pinocchio's factor of A(q), and the whole impact is one compiled call on it
-        (:func:`mbimpact.metric.kernels.newton`), the closed form of :meth:`apply_metric` to rounding.
-
-        The degenerate cases (no approach, n⁰ out of reach, A(q) not positive definite) and
-        magnitudes that overflow take the general route, which names them or treats them; so does a
-        subclass that overrides :meth:`apply_metric`.
-        """
-        if type(self).apply_metric is NewtonLaw.apply_metric:
-            kernels = METRIC_KERNELS.get()
-            A, U, D = factor if factor is not None else mech.factor_arrays(q)
-            d = len(R)
-            buffer = np.empty(3 * len(v) + 4 * d)
-            if kernels.newton(U, D, J, v, R, self.e, buffer):
-                return ImpactResult.from_buffer(buffer, A, J, self)
-        return self.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
-
-    def reads_factor(self) -> bool:
-        """:meth:`ImpactLaw.reads_factor`: True (one solve with the factor, :meth:`apply_mechanism`)."""
-        return True
+    def compiled_impact(self) -> CompiledImpact | None:
+        """One compiled call on Pinocchio's factor (:func:`mbimpact.laws.newton_kernels.newton_impact`), and
+        the compiled front end's whole impact at a point contact (``"newton"``: stage 1 and (1.2) in one C++
+        call); None for a subclass."""
+        return _compiled(self.e) if type(self) is NewtonLaw else None
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with
@@ -147,38 +136,3 @@ class NewtonLaw(ImpactLaw):
         if not (v_max < _HUGE and jump_max < _HUGE):
             return super().apply_batch(A, J, V, frame)
         return BatchResult.along_normal(V.copy(), Pn, y, Jy, n0.copy(), metric.A, Jm, self)
-
-    def apply_stack(self, A: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
-                    R: NDArray[np.float64]) -> BatchResult | None:
-        """:meth:`apply_metric` for rows of (A, J, v, R), vectorised: one batched Cholesky and solve.
-
-        Returns None when a row needs the general route (no approach, n⁰ out of reach,
-        A not positive definite, magnitudes that overflow): the caller then
-        applies the law row by row, which names the error or treats the row.
-        """
-        n0 = R[:, :, -1]
-        with quiet_overflow():
-            jn = np.einsum("bd,bdn->bn", n0, J)
-            un = np.einsum("bn,bn->b", jn, V)
-            if not (np.all(un < 0.0) and np.all(un > -_BIG)):
-                return None
-            jj = np.einsum("bdn,bdn->b", J, J)
-            if not (np.all(np.einsum("bn,bn->b", jn, jn) > 1e-8 * jj) and np.all(jj < _BIG)):
-                return None
-            try:
-                L = np.linalg.cholesky(A)
-            except np.linalg.LinAlgError:
-                return None
-            y = np.linalg.solve(L.transpose(0, 2, 1), np.linalg.solve(L, jn[:, :, None]))[:, :, 0]
-            wnn = np.einsum("bn,bn->b", jn, y)
-            Pn = -(1.0 + self.e) * un / wnn
-            dV = Pn[:, None] * y
-            U = np.einsum("bdn,bn->bd", J, V)
-            U_plus = U + np.einsum("bdn,bn->bd", J, dV)
-            V_plus = V + dV
-            if not (np.all(wnn > 0.0) and np.isfinite(V_plus).all() and np.isfinite(U_plus).all()):
-                return None
-        return BatchResult(
-            V_minus=V.copy(), V_plus=V_plus, dV=dV, P=Pn[:, None] * n0, U_minus=U, U_plus=U_plus, n0=n0.copy(),
-            A=A, J=J, law=self, error_estimate=np.zeros(len(V)),
-        )

@@ -7,48 +7,37 @@ the flux weights (2.7) stay, only the impulse of one facet changes.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
-import warnings
-from typing import TYPE_CHECKING, Any, Callable, ClassVar
+import functools
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..averaging import (AUTO_ORDER, METHODS, Adaptive, Averaging, ConePair, ConePass, Fixed, Graded, GradedPass,
-                         GradedSlopePass, Ring, SlopePass)
-from ..averaging.cone_pair import KERNELS as CONE_KERNELS
-from ..averaging.graded_pass import KERNELS as GRADED_KERNELS
-from ..averaging.kernels import AveragingSpec, Flux, check_flux, general_facets
-from ..averaging.pole_pass import pole_plan
-from ..averaging.refinement import level_plan
+from ..averaging import AUTO_ORDER, METHODS, Averaging, Graded, Ring
+from ..averaging.backends import level_plan
+from ..averaging.compiled import CONE, GRADED_CONE
+from ..averaging.compiled.codes import SKIP
+from ..averaging.integrand import AveragingSpec, Flux, check_flux, general_facets
+from ..averaging.poles import pole_plan
 from ..common.compiled import KernelModule
-from ..common.geometry import DEGENERATE
 from ..common.validation import as_count, as_scalar
-from ..errors import AccuracyWarning, ParameterError, RoughnessError, warn
+from ..errors import ParameterError, RoughnessError
 from ..facets.base import FacetLaw, method_label
 from ..facets.newton import NewtonFacet
-from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
-from ..results.impact import BatchResult, ContactImpulses, ImpactResult
-from ..results.quantities import SEPARATION_RTOL
+from ..results.impact import ContactImpulses
 from ..roughness.base import Roughness
 from ..roughness.cone import Cone
-from .base import RANK_FLOOR, ImpactLaw
+from .base import ImpactLaw
+from .compiled import CompiledImpact
+from .repeat import repeated
 from .restitution import restitution_from
-
-if TYPE_CHECKING:
-    from ..mechanism.mechanism import Mechanism
 
 __all__ = ["RoughLaw", "KERNELS"]
 
-#: The compiled single impact on a cone (:mod:`mbimpact.laws.rough_kernels`), loaded on first use.
-KERNELS = KernelModule("mbimpact.laws.rough_kernels")
+#: The compiled single impact on a cone (:mod:`mbimpact.laws.compiled_cone`), loaded on first use.
+KERNELS = KernelModule("mbimpact.laws.compiled_cone")
 
-# what "auto" tries for one velocity on a cone, in order, when the compiled single impact stands for it
-# ("ring" and "fixed" are not worthwhile for one velocity without a fixed node count; "pole-pass" is not
-# with the configuration flux)
-_CONE_AUTO = ("ring", "pole-pass", "graded-pass", "graded", "cone-pair", "cone-pass", "fixed", "adaptive")
 # levels of the compiled call's node tables (32, 64, 128 nodes for a cone: the anisotropic W of a foot
 # on the ground needs the third); a velocity that needs more goes on in Python with every level
 _CONE_LEVELS = 3
@@ -63,7 +52,7 @@ class RoughLaw(ImpactLaw):
         Δv = −(1+e) ∫_{G*} (N, v₋)² N dP / ∫_{G*} (N, v₋) dP,
 
     computed in contact space as P = −(1+e) Σ wᵢ (mᵢᵀu / mᵢᵀWmᵢ) mᵢ / Σ wᵢ with
-    wᵢ the facet weight of (2.7) on G* = {mᵢᵀu < 0} (:mod:`mbimpact.averaging.kernels`).
+    wᵢ the facet weight of (2.7) on G* = {mᵢᵀu < 0} (:mod:`mbimpact.averaging.integrand`).
 
     The model assumes one micro-impact per facet: a Newton impact on the facet hit
     first, then separation. Its results are valid while the averaged outcome leaves
@@ -83,10 +72,9 @@ class RoughLaw(ImpactLaw):
         The impact on one facet, instead of ``e``/``k`` (:mod:`mbimpact.facets`):
         :class:`NewtonFacet` (the paper's, with every averaging method),
         :class:`CoulombFacet`, :class:`CompliantFacet`, :class:`HuntCrossleyFacet`
-        (the quadrature methods only: ``exact``, ``fixed``, ``adaptive``, ``graded``,
-        ``monte-carlo``; naming ``ring``, ``tilt-table``, ``cone-pair``, ``cone-pass``,
-        ``graded-pass``, ``graded-slope-pass`` or ``slope-pass`` is a
-        :class:`ParameterError`). Results record the facet law in ``method``:
+        (the quadrature rules only: ``exact``, ``fixed``, ``adaptive``, ``graded``,
+        ``monte-carlo``; naming another is a :class:`ParameterError`). Results record the
+        facet law in ``method``:
         ``"adaptive[coulomb]"`` (Newton facets keep the bare averaging name).
     flux : {"physical", "configuration"}
         Weight of a facet in (2.7). ``"physical"`` (default): pᵢ (−mᵢᵀu), the rate
@@ -101,9 +89,9 @@ class RoughLaw(ImpactLaw):
     method : str, Averaging subclass or instance
         How the integrals of (2.8) are computed: ``"auto"`` (default) or a name of
         :data:`mbimpact.averaging.METHODS` (``"exact"``, ``"ring"``, ``"tilt-table"``,
-        ``"graded-slope-pass"``, ``"graded-pass"``, ``"graded"``, ``"cone-pair"``,
-        ``"cone-pass"``, ``"slope-pass"``, ``"fixed"``, ``"adaptive"``,
-        ``"monte-carlo"``). The result records which ran (``result.method``).
+        ``"laplace"``, ``"poles"``, ``"graded"``, ``"fixed"``, ``"adaptive"``,
+        ``"monte-carlo"``). The result records which ran (``result.method``; a rule's
+        compiled backend as ``"adaptive[compiled]"``).
     rtol : float, optional
         Relative accuracy of the adaptive quadrature for measures that are not
         finite (default: the facet law's :meth:`~mbimpact.facets.FacetLaw.quadrature_rtol`:
@@ -141,11 +129,10 @@ class RoughLaw(ImpactLaw):
     max_node_count, max_samples : int
         Upper bounds of ``nodes``/``max_nodes`` and ``samples``.
     max_repeats : int
-        ``repeat=True``: at most this many further applications of (2.8).
+        ``repeat=True``: at most this many further applications of (2.8) (:mod:`mbimpact.laws.repeat`).
     repeat_budget : int
         ``repeat=True``: at most this many facets averaged for them, counted for the
-        quadratures refined in nodes a piece (fixed, adaptive, graded, graded-pass,
-        graded-slope-pass, cone-pair, cone-pass, slope-pass) by
+        quadratures refined in nodes a piece (fixed, adaptive, graded) by
         :meth:`Roughness.rule_size` (a :class:`GaussianSlopes` puts up to 60 n² facets on
         a velocity with a graded rule of n nodes a piece, 2 n² with its plain rule; a
         :class:`Cone` n). A contact still approaching at either limit is returned as it
@@ -184,15 +171,13 @@ class RoughLaw(ImpactLaw):
     unit ones, and :meth:`contact_impulses` reads its ``U`` as physical.
 
     For a nearly singular W (an arm near a singular posture) the kernels of (2.8)
-    peak sharply where mᵀWm is smallest; ``"auto"`` then grades the rule towards
-    the peaks by sinh maps (``"graded"``; for one velocity, in one compiled call:
-    ``"graded-pass"`` on a :class:`Cone`, ``"graded-slope-pass"`` on a spatial tilt
-    density), converging with tens of nodes where a uniform rule needs 10⁵. Single
-    velocities on a :class:`Cone` take the first adaptive pass in one compiled call
-    (``"cone-pair"``; numba, loaded on first use), or, where it does not settle them
-    (a strongly anisotropic W), every level of the adaptive rule in one call
-    (``"cone-pass"``); batches at one W use closed-form expansions (``"ring"``,
-    ``"tilt-table"``).
+    peak sharply where mᵀWm is smallest; ``"auto"`` then takes the poles out (``"poles"``,
+    one velocity on a :class:`Cone`) or grades the rule towards the peaks by sinh maps
+    (``"graded"``), converging with tens of nodes where a uniform rule needs 10⁵. Single
+    velocities with Newton facets run the refinable rules compiled (numba, loaded on
+    first use; a :class:`Cone`'s whole impact in one call, :meth:`compiled_impact`);
+    batches at one W use closed-form expansions (``"ring"``, ``"tilt-table"``) and
+    Gaussian slopes their Laplace reduction (``"laplace"``).
     """
 
     #: Upper bounds that keep a typo from turning into hours of work.
@@ -243,7 +228,7 @@ class RoughLaw(ImpactLaw):
         self.facet = facet
         self.method = _method(method, self.spec)
         self._auto: tuple[AveragingSpec, tuple[Averaging, ...]] | None = None  # see _auto_methods
-        self._cone: tuple[tuple[Any, ...], tuple[Any, ...] | None] | None = None  # see _cone_plan
+        self._cone: tuple[tuple[Any, ...], CompiledImpact | None] | None = None  # see compiled_impact
         if not isinstance(repeat, bool):
             raise ParameterError(f"repeat must be True or False, got {repeat!r}")
         self.repeat = repeat
@@ -336,100 +321,41 @@ class RoughLaw(ImpactLaw):
             speed = big * np.linalg.norm(U / big[:, None], axis=1)  # as ImpactLaw.impulses computes it
         return _AtSpeeds(self, speed).impulses(metric, U, R)
 
-    def apply_mechanism(self, mech: Mechanism, q: NDArray[np.float64], v: NDArray[np.float64],
-                        J: NDArray[np.float64], R: NDArray[np.float64],
-                        factor: tuple[NDArray[np.float64], ...] | None = None) -> ImpactResult:
-        """:meth:`ImpactLaw.apply_mechanism`; one velocity on a :class:`~mbimpact.Cone` by ``"auto"`` runs
-        whole in one compiled call (:func:`mbimpact.laws.rough_kernels.cone_impact`): the metric, the
-        cone's compiled averaging methods and the outcome, the same arithmetic and decisions as the
-        pipeline's three steps. What those methods do not settle goes on in Python from the prepared
-        state; what the metric does not prepare takes :meth:`ImpactLaw.apply_mechanism`."""
-        plan = self._cone_plan()
-        if plan is None or len(R) != 3:
-            return super().apply_mechanism(mech, q, v, J, R, factor)
-        kernels = KERNELS.get()
-        A, U, D, call = self._on_factor(mech, q, factor, KERNELS, "cone_impact")
-        buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
-        status, nodes, error, speed, w_scale, un_plus, finite = call(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *plan,
-                                                                     buffer)
-        if status < kernels.DECLINED:
-            return self._single_result(A, J, buffer, speed, finite, un_plus, error, nodes, kernels.METHODS[status])
-        if status == kernels.DECLINED:
-            return self._finish_single(METRIC_KERNELS.get(), A, J, R, buffer, speed, w_scale)
-        return super().apply_mechanism(mech, q, v, J, R)
+    def compiled_impact(self) -> CompiledImpact | None:
+        """One velocity on a :class:`~mbimpact.Cone` by ``"auto"``: the whole impact in one compiled call
+        (:func:`mbimpact.laws.compiled_cone.cone_impact`), running the compiled steps of the rules of
+        ``"auto"`` (:meth:`mbimpact.averaging.Averaging.cone_step`) in their order. None where a rule that
+        ``"auto"`` may run for one velocity has no compiled step, for another measure or method, repeated
+        micro-impacts, facets other than Newton's, a fixed node count, or a subclass (which may change any
+        step).
 
-    def reads_factor(self) -> bool:
-        """:meth:`ImpactLaw.reads_factor`: also on a :class:`~mbimpact.Cone` by ``"auto"``."""
-        return self._cone_plan() is not None or super().reads_factor()
-
-    def factored_stack(self) -> bool:
-        """True where a single impact runs whole in one compiled call (a :class:`~mbimpact.Cone` by
-        ``"auto"``, :meth:`apply_mechanism`): :func:`mbimpact.impact_batch` then makes that call once
-        for all rows (:meth:`apply_factored_stack`)."""
-        return self._cone_plan() is not None
-
-    def apply_factored_stack(self, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
-                             J: NDArray[np.float64], V: NDArray[np.float64], R: NDArray[np.float64],
-                             row: Callable[[int], ImpactResult],
-                             fill: Callable[[int, int], None] | None = None) -> BatchResult:
-        """:meth:`ImpactLaw.apply_factored_stack`: :func:`mbimpact.laws.rough_kernels.cone_batch`, the
-        compiled single impact of :meth:`apply_mechanism` once for all rows; each row's result is that of
-        :func:`mbimpact.impact` to the bit. The rows it leaves (what the compiled methods do not settle,
-        what the metric does not prepare, an outcome beyond the float range) are ``row(i)``, which names
-        or treats them (:meth:`ImpactLaw._factored_result`)."""
-        plan = self._cone_plan()
-        if plan is None:
-            raise ParameterError(f"{self!r}: no compiled route for batches across configurations (factored_stack() "
-                                 "is False: a Cone by method='auto' with Newton facets has one); "
-                                 "mbimpact.impact_batch applies this law row by row")
-        kernels = KERNELS.get()
-        buffer, status, nodes, stats = self._factored_run(kernels.cone_batch, plan, U, D, J, V, R, fill)
-        settled = (status < kernels.DECLINED) & (stats[:, 4] == 1.0)
-        methods = {kernels.METHODS[code] for code in np.unique(status[settled])}
-        return self._factored_result(A, J, buffer, settled, nodes, stats, methods, row)
-
-    def _cone_plan(self) -> tuple[Any, ...] | None:
-        """The arguments of :func:`mbimpact.laws.rough_kernels.cone_impact` after the state's (α, the graded
-        rule's, the cone's and ``"pole-pass"``'s node tables and level counts, Graded.peaked, the flux, e,
-        rtol), or None where it does not stand for this law's "auto": another method, a measure other than a
-        cone, repeated micro-impacts, facets other than Newton's, a fixed node count, levels short of the
-        first pair, a ``"ring"`` worthwhile for one velocity, or a subclass (which may override any step).
-
-        Made again whenever what it was made of changes (the spec, ``method``, ``repeat``,
-        ``Graded.peaked``, ``Ring.min_rows``). Its tables hold the first three levels only (32, 64 and 128
-        nodes for a cone; 16 … 128 for ``"pole-pass"``): a velocity that needs more is declined by the
-        compiled call and goes on with every level in Python, so that a law never builds tables up to
-        ``max_nodes`` (Gauss–Legendre nodes by the thousand take seconds) for the few impacts that need
-        them."""
+        Made again whenever what it was made of changes (the spec, ``method``, ``repeat``, the rules'
+        thresholds). Its node tables hold the first three levels only (32, 64 and 128 nodes for a cone;
+        16 … 128 for the pole rule): a velocity that needs more is declined by the compiled call and goes
+        on with every level in Python, so that a law never builds tables up to ``max_nodes`` for the few
+        impacts that need them."""
         key = (self.spec, self.method, self.repeat, Graded.peaked, Ring.min_rows)
-        cached = getattr(self, "_cone", None)  # (a law pickled before this cache existed has none)
+        cached = self.__dict__.get("_cone")
         if cached is not None and cached[0] == key:
             return cached[1]
+        compiled = None
         spec = self.spec
-        plan = None
         if (type(self) is RoughLaw and self.method is None and not self.repeat and type(spec.roughness) is Cone
-                and spec.roughness.alpha > 0.0 and spec.nodes is None and not general_facets(spec)
-                and key[4] > 1 and self._compiled_route()
-                and tuple(m.name for m in self._auto_methods()) == _CONE_AUTO):
-            n, levels = level_plan(spec)
-            if levels >= 2 and 2 * spec.roughness.initial_nodes <= spec.max_nodes:
-                levels = min(levels, _CONE_LEVELS)
-                graded, cone = GRADED_KERNELS.get(), CONE_KERNELS.get()
-                pole_n, pole_levels = pole_plan(spec)
-                plan = (spec.roughness.alpha, graded.rule_table(n, levels), levels, Graded.peaked,
-                        cone.rule_table(n, levels), levels, cone.rule_table(pole_n, pole_levels), pole_levels,
-                        spec.flux == "configuration", spec.e, spec.rtol)
-        self._cone = (key, plan)
-        return plan
+                and spec.roughness.alpha > 0.0 and spec.nodes is None and not general_facets(spec)):
+            compiled = _cone_impact(spec, self._auto_methods())
+        self._cone = (key, compiled)
+        return compiled
 
-    def _single_route(self) -> bool:
-        # a speed-dependent facet law needs the physical speeds of impulses() above
-        return self.facet.homogeneous and type(self).impulses is RoughLaw.impulses
+    @property
+    def homogeneous(self) -> bool:
+        """Whether the facet law is homogeneous (a speed-dependent one gets the physical speeds:
+        :meth:`impulses`)."""
+        return self.facet.homogeneous
 
     def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         # contact_impulses_at(W, U, None) without its layers: a single impact's hot path
-        out = self._average_to(self.spec, W, U)[0]
-        return self._repeated(W, U, out) if self.repeat else out
+        out = self.average_to(self.spec, W, U)[0]
+        return repeated(self, W, U, out) if self.repeat else out
 
     def contact_impulses_at(self, W: NDArray[np.float64], U: NDArray[np.float64],
                             speed: NDArray[np.float64] | None) -> ContactImpulses:
@@ -446,7 +372,7 @@ class RoughLaw(ImpactLaw):
             out = ContactImpulses(out.P / speed[:, None], out.error, out.nodes, out.method)
         if not self.repeat:
             return out
-        return self._repeated(W, U, out, speed)
+        return repeated(self, W, U, out, speed)
 
     def separation_advice(self) -> str:
         if self.repeat:  # the repetition stopped first: its AccuracyWarning says at which budget
@@ -458,26 +384,20 @@ class RoughLaw(ImpactLaw):
         a speed-dependent facet law — by the law's averaging method (or the first of
         :data:`mbimpact.averaging.AUTO_ORDER` that accepts). Facet laws other than Newton's label
         ``method`` with their name (``"adaptive[coulomb]"``)."""
-        return self._average_to(self.spec, W, U)[0]
+        return self.average_to(self.spec, W, U)[0]
 
-    def _average_to(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]
-                    ) -> tuple[ContactImpulses, Averaging]:
-        """:meth:`average` to the accuracy of ``spec`` (this law's, or :meth:`_coarse_spec`), and the method that ran."""
+    def average_to(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]
+                   ) -> tuple[ContactImpulses, Averaging]:
+        """:meth:`average` to the accuracy of ``spec`` (this law's, or that of coarse repeated micro-impacts:
+        :func:`mbimpact.laws.repeat.coarse_spec`), and the rule that ran."""
         general = general_facets(spec)
         if self.method is not None:
             out = self.method.average(spec, W, U)
             if out is None:
                 raise ParameterError(f"{self!r}: {self.method.reason(spec)}")
             return (_labelled(out, self.facet) if general else out), self.method
-        screened: dict[str, bool] = {}  # decisions a compiled twin's screen has already made
-        single = len(U) == 1 and spec.nodes is None and W.shape == (3, 3)
         for method in self._auto_methods():
-            worthwhile = screened.get(method.name)
-            if worthwhile is None:
-                worthwhile = method.worthwhile(spec, W, U)
-                if single and method.shares_screen_with is not None:
-                    screened[method.shares_screen_with] = worthwhile
-            if worthwhile:
+            if method.worthwhile(spec, W, U):
                 out = method.average(spec, W, U)
                 if out is not None:
                     return (_labelled(out, self.facet) if general else out), method
@@ -492,143 +412,9 @@ class RoughLaw(ImpactLaw):
         spec = self.spec
         general = general_facets(spec)
         methods = tuple(m for m in (_INSTANCES[name] for name in AUTO_ORDER)
-                        if (not general or _any_facet(m)) and m.supports(spec))
+                        if (not general or m.any_facet) and m.supports(spec))
         self._auto = (spec, methods)
         return methods
-
-    def _coarse_spec(self, graded: bool) -> AveragingSpec:
-        """The averaging spec of the micro-impacts beyond ``exact_budget`` (see the class attributes):
-        ``coarse_rtol`` and the most nodes a piece (doublings of the measure's ``initial_nodes``, at
-        least one) whose rule (``graded`` or not) has at most ``coarse_facets`` facets; this law's
-        own spec for a fixed node count, or when that relaxes nothing."""
-        spec = self.spec
-        if spec.nodes is not None:
-            return spec
-        rough = spec.roughness
-        limit = 2 * max(1, rough.initial_nodes)
-        while limit < spec.max_nodes and rough.rule_size(2 * limit, graded) <= self.coarse_facets:
-            limit *= 2
-        coarse = dataclasses.replace(spec, rtol=max(spec.rtol, self.coarse_rtol), max_nodes=min(spec.max_nodes, limit))
-        return spec if (coarse.rtol, coarse.max_nodes) == (spec.rtol, spec.max_nodes) else coarse
-
-    def _repeated(self, W: NDArray[np.float64], U: NDArray[np.float64], first: ContactImpulses,
-                  physical: NDArray[np.float64] | None = None) -> ContactImpulses:
-        """Apply (2.8) again to the rows whose contact still approaches, until it separates.
-
-        (2.8) is positively homogeneous of degree 1, so the micro-impacts either throw the
-        contact off after finitely many of them, or their directions settle into a fixed
-        direction or a two-cycle (bouncing between the walls of a valley) along which
-        u_{k+p} = ρ u_k with ρ < 1: the velocities then shrink geometrically to u = 0, and
-        the limit of the impulses is the one that stops the contact point, P = −W⁺ u₋.
-        (For a speed-dependent facet law, ``physical`` holds the rows' physical speeds.)
-
-        The work is bounded as the class attributes say: once the micro-impacts averaged to rtol
-        have cost ``exact_budget``, the rest are coarse (:meth:`_coarse_spec`); a row whose coarse
-        path may have drifted by a tenth of its distance to the tangent plane falls back to its
-        last micro-impact averaged to rtol; all stop at ``repeat_budget`` or ``max_repeats``."""
-        total, err, nodes = first.P.copy(), first.error.copy(), first.nodes
-        coarse: AveragingSpec | None = None  # made once a pass has shown whether the rule is graded
-        rough = self.spec.roughness
-        B, d = U.shape
-        u = U + total @ W  # W is symmetric
-        dirs = np.full((2, B, d), np.nan)  # the last two directions of each row, oldest first
-        speeds = np.ones((2, B))
-        steps = np.full((2, B), np.nan)  # the last two changes of direction |d_k − d_{k−1}|
-        # the state after the last micro-impact averaged to rtol, and how far the coarse ones since
-        # may have led u astray: Σ |W δP_k| ≤ Σ error_k |W P_k|
-        kept_total, kept_u, kept_err, kept_count = total.copy(), u.copy(), err.copy(), np.zeros(B, dtype=int)
-        astray = np.zeros(B)
-        coarsened = np.zeros(B, dtype=bool)  # rows followed by coarse micro-impacts
-        lost = np.zeros(B, dtype=bool)  # rows the coarse micro-impacts could not follow
-        work = 0  # facets averaged (passes of rules refined in nodes a piece)
-        graded = False  # whether they were graded
-        count = 0  # passes made
-        todo = np.flatnonzero(u[:, -1] < -SEPARATION_RTOL)  # U is unit
-        while todo.size and count < self.max_repeats and work < self.repeat_budget:
-            speed = np.linalg.norm(u[todo], axis=1)
-            direction = u[todo] / speed[:, None]
-            # a coarse path that may have moved u by a tenth of its way to the tangent plane cannot tell
-            # whether the contact separates: back to the last micro-impact averaged to rtol
-            adrift = coarsened[todo] & ~(astray[todo] <= 0.1 * speed * -direction[:, -1])
-            if adrift.any():
-                rows = todo[adrift]
-                total[rows], u[rows], err[rows], lost[rows] = kept_total[rows], kept_u[rows], kept_err[rows], True
-                todo, speed, direction = todo[~adrift], speed[~adrift], direction[~adrift]
-                if not todo.size:
-                    break
-            stuck = np.zeros(len(todo), dtype=bool)
-            for period in (1, 2):
-                rho = speed / speeds[2 - period, todo]
-                stuck |= (np.einsum("bd,bd->b", direction, dirs[2 - period, todo]) > 1.0 - self.settled) & (rho < 1.0)
-            # a direction converging geometrically (to a fixed point or a two-cycle): its changes shrink
-            # by r < 1, so it moves at most step·r/(1 − r) more; if that cannot bring it to the tangent
-            # plane and the speed keeps shrinking, the contact is being stopped: settle now
-            step = np.linalg.norm(direction - dirs[1, todo], axis=1)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                r = np.maximum(step / steps[1, todo], steps[1, todo] / steps[0, todo])
-                drift = step * r / (1.0 - r)
-            shrinking = (speed < speeds[1, todo]) & (speeds[1, todo] < speeds[0, todo])
-            stuck |= (r < self.contraction) & shrinking & (drift < 0.1 * -direction[:, -1])
-            steps[0, todo], steps[1, todo] = steps[1, todo], step
-            if stuck.any():
-                rows = todo[stuck]
-                total[rows] = -np.linalg.lstsq(W, U[rows].T, rcond=1e-12)[0].T  # u₋ + W P = 0
-                u[rows] = 0.0
-                err[rows], coarsened[rows] = kept_err[rows], False  # coarse micro-impacts only told it stops
-                todo, speed, direction = todo[~stuck], speed[~stuck], direction[~stuck]
-                if not todo.size:
-                    break
-            if work >= self.exact_budget and coarse is None:
-                coarse = self._coarse_spec(graded)
-            spec = self.spec if coarse is None else coarse
-            # a coarse rule stopped short is expected: its error is kept below (entering catch_warnings resets
-            # the once-per-call-site registries, so only coarse passes do)
-            with warnings.catch_warnings() if spec is not self.spec else contextlib.nullcontext():
-                if spec is not self.spec:
-                    warnings.simplefilter("ignore", AccuracyWarning)
-                if physical is None:
-                    more, method = self._average_to(spec, W, direction)
-                    Pk = more.P * speed[:, None]
-                else:
-                    more, method = self._average_to(spec, W, direction * (speed * physical[todo])[:, None])
-                    Pk = more.P / physical[todo][:, None]
-            count += 1
-            if isinstance(method, _REFINED):  # the other methods cost little, or what the user asked for
-                graded = isinstance(method, (Graded, GradedPass, GradedSlopePass))
-                work += rough.rule_size(more.nodes, graded)
-            nodes = max(nodes, more.nodes)
-            err[todo] = np.maximum(err[todo], more.error)
-            total[todo] += Pk
-            dU = Pk @ W
-            u[todo] += dU
-            if spec is self.spec:
-                kept_total[todo], kept_u[todo], kept_err[todo], kept_count[todo] = total[todo], u[todo], err[todo], count
-            else:
-                coarsened[todo] = True
-                astray[todo] += more.error * np.linalg.norm(dU, axis=1)
-            dirs[0, todo], dirs[1, todo] = dirs[1, todo], direction
-            speeds[0, todo], speeds[1, todo] = speeds[1, todo], speed
-            todo = todo[u[todo, -1] < -SEPARATION_RTOL]
-        if todo.size:
-            warn(AccuracyWarning, f"{self!r}: the contact still approaches after {_impacts(count)} "
-                                  f"(n0·u = {u[todo[0], -1]:.3g} for a unit approach), at the limit of "
-                                  f"RoughLaw.max_repeats = {self.max_repeats} or RoughLaw.repeat_budget = "
-                                  f"{self.repeat_budget:g} facets")
-        if lost.any():
-            assert coarse is not None
-            i = int(np.flatnonzero(lost)[0])
-            warn(AccuracyWarning, f"{self!r}: the contact still approaches after {_impacts(int(kept_count[i]))} "
-                                  f"(n0·u = {u[i, -1]:.3g} for a unit approach): later ones, averaged to "
-                                  f"rtol={coarse.rtol:g} with at most {coarse.max_nodes} nodes to bound the work "
-                                  "(RoughLaw.exact_budget), are too inaccurate on this W to tell whether it separates")
-        loose = np.flatnonzero(coarsened & ~lost & (err > self.spec.rtol))
-        if loose.size:
-            assert coarse is not None
-            warn(AccuracyWarning, f"{self!r}: the contact separated after repeated impacts of which the later ones "
-                                  f"were averaged to rtol={coarse.rtol:g} with at most {coarse.max_nodes} nodes to "
-                                  f"bound the work (RoughLaw.exact_budget): estimated relative error "
-                                  f"{err[loose].max():.3g} > rtol={self.spec.rtol:g}")
-        return ContactImpulses(total, err, nodes, first.method)
 
 
 class _AtSpeeds(ImpactLaw):
@@ -669,24 +455,11 @@ def _facet_law(e: object, k: float | None, facet: object) -> FacetLaw:
     return facet
 
 
-def _impacts(count: int) -> str:
-    """"1 repeated impact", "3 repeated impacts"."""
-    return f"{count} repeated impact" + ("" if count == 1 else "s")
-
-
-def _any_facet(method: Averaging) -> bool:
-    """Whether an averaging method evaluates any facet law (the quadrature methods), not only Newton's."""
-    return bool(getattr(method, "any_facet", False))
-
-
 def _labelled(out: ContactImpulses, facet: FacetLaw) -> ContactImpulses:
     """The result of an average of facets other than Newton's: ``method`` names both, "adaptive[coulomb]"
     (:func:`mbimpact.facets.method_label`)."""
     return ContactImpulses(out.P, out.error, out.nodes, method_label(out.method, facet))
 
-
-# the methods whose ``nodes`` count a quadrature rule's nodes a piece (Roughness.rule_size gives its facets)
-_REFINED = (Fixed, Adaptive, Graded, GradedPass, GradedSlopePass, ConePair, ConePass, SlopePass)
 
 # one stateless instance of each method, for "auto"
 _INSTANCES: dict[str, Averaging] = {name: cls() for name, cls in METHODS.items()}
@@ -712,10 +485,46 @@ def _method(method: object, spec: AveragingSpec) -> Averaging | None:
         usable = [n for n, m in _INSTANCES.items() if m.supports(spec)]
         raise ParameterError(f"the '{chosen.name}' averaging cannot average {spec.roughness!r}; "
                              f"methods for this measure: {', '.join(usable)}")
-    if general_facets(spec) and not _any_facet(chosen):
-        usable = [n for n, m in _INSTANCES.items() if _any_facet(m) and m.supports(spec)]
+    if general_facets(spec) and not chosen.any_facet:
+        usable = [n for n, m in _INSTANCES.items() if m.any_facet and m.supports(spec)]
         raise ParameterError(f"the '{chosen.name}' averaging integrates Newton facets in closed form and cannot "
                              f"average {spec.facet!r}; methods for this facet law and measure: {', '.join(usable)}")
     return chosen
 
 
+
+
+def _cone_impact(spec: AveragingSpec, methods: tuple[Averaging, ...]) -> CompiledImpact | None:
+    """The compiled single impact on a cone that runs the compiled steps of ``methods`` (those of "auto", in
+    order), or None where one that "auto" may run for one velocity has none, or the levels fall short of the
+    first pair."""
+    steps = []
+    for method in methods:
+        step = method.cone_step(spec)
+        if step is None:
+            return None
+        if step != SKIP:
+            steps.append(step)
+    n, levels = level_plan(spec)
+    if levels < 2 or 2 * spec.roughness.initial_nodes > spec.max_nodes or not steps:
+        return None
+    return _cone_plan(spec, tuple(steps), n, min(levels, _CONE_LEVELS), Graded.peaked)
+
+
+@functools.lru_cache(maxsize=64)
+def _cone_plan(spec: AveragingSpec, steps: tuple[int, ...], n: int, levels: int, peaked: float) -> CompiledImpact:
+    graded, cone = GRADED_CONE.get(), CONE.get()
+    pole_n, pole_levels = pole_plan(spec)
+    codes = np.array(steps, dtype=np.int64)
+    codes.flags.writeable = False
+    cone_ = spec.roughness
+    assert isinstance(cone_, Cone)
+    args = (cone_.alpha, codes, graded.rule_table(n, levels), levels, peaked, cone.rule_table(n, levels),
+            levels, cone.rule_table(pole_n, pole_levels), pole_levels, spec.flux == "configuration", spec.e, spec.rtol)
+    names = tuple(f"{name}[compiled]" if name != "poles" else name
+                  for name in (_STEP_NAMES[step] for step in steps))
+    return CompiledImpact(KERNELS, "cone_impact", "cone_batch", args, names)
+
+
+# the rules of the compiled steps (mbimpact.averaging.compiled.codes), as results name them
+_STEP_NAMES = {0: "poles", 1: "graded", 2: "adaptive"}

@@ -1,7 +1,7 @@
-"""Stage 1 of the pipeline, the Pinocchio bridge: mechanisms, robots, contacts, :func:`impact`."""
+"""Stage 1 of the pipeline, the Pinocchio bridge: mechanisms, robots, contacts (the pipeline that
+computes an impact from them is :mod:`mbimpact.pipeline`)."""
 
 from .contact import Contact, PointContact
-from .impact import impact, impact_batch
 from .mechanism import MassFactor, Mechanism
 from .robots import model_names, model_path, models_dir, robot_names, robot_urdf
 
@@ -10,8 +10,6 @@ __all__ = [
     "MassFactor",
     "Contact",
     "PointContact",
-    "impact",
-    "impact_batch",
     "robot_names",
     "robot_urdf",
     "model_names",

@@ -158,8 +158,8 @@ class PointContact(Contact):
                        R: NDArray[np.float64]) -> int:
         """:meth:`Contact.fill_jacobians` in one lean loop of Pinocchio calls for a spatial contact
         (:meth:`Mechanism.fill_frame_jacobians`): the rows are :meth:`jacobian`'s, to the bit. (A subclass
-        that overrides :meth:`jacobian` gets the base class's loop of its own :meth:`jacobian`.)"""
-        if d.__class__ is not int or d != 3 or type(self).jacobian is not PointContact.jacobian:
+        gets the base class's loop of its own :meth:`jacobian`.)"""
+        if d.__class__ is not int or d != 3 or type(self) is not PointContact:
             return super().fill_jacobians(mech, Q, d, J, R)
         mech.fill_frame_jacobians(Q, mech.frame_id(self.frame), self._offset, J)
         R[:] = self._basis

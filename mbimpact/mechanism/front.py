@@ -5,10 +5,9 @@ Cholesky factor of A(q)) and, around it, Python's calls, checks and conversions,
 than the work itself. The extension :mod:`mbimpact.mechanism.native` (``native.cpp``) does the
 whole front of it in one call on the live ``pinocchio.Model``, with the same machine code as
 Pinocchio's Python bindings run: it checks q and v, computes J(q), A(q) and the factor into
-buffers the caller owns, and, for Newton's law, the impact (1.2) itself. It repeats the Python
-route's arithmetic operation by operation, so the results are the same bits either way; what it
-does not handle (inputs that need a named error, degenerate impacts) it hands back to the Python
-route, which treats or names it.
+buffers the caller owns, and, for Newton's law, the impact (1.2) itself: the same algorithm as the
+Python route, with the same results to rounding. What it does not handle (inputs that need a named
+error, degenerate impacts) it hands back to the Python route, which treats or names it.
 
 The extension is compiled at ``pip install`` against the headers of the ``pin`` wheel present then
 (:mod:`mbimpact.mechanism.native_build`). It is used only where it was built and that Pinocchio is

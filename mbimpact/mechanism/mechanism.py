@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from ..common.geometry import offset_point_jacobian, rotate
+from ..common.geometry import offset_point_jacobian
 from ..common.validation import FLOAT64, as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from . import front
@@ -411,7 +411,7 @@ class Mechanism:
                                    NDArray[np.float64]] | None:
         """Stage one of an impact in one call of the compiled front end: q and v checked, the point's
         Jacobian and A(q) with its factor, the values of :meth:`check_state`, :meth:`frame_jacobian`
-        and :meth:`factor_arrays` to the bit.
+        and :meth:`factor_arrays` (to rounding, for an offset point).
 
         Parameters
         ----------
@@ -450,7 +450,7 @@ class Mechanism:
         """:meth:`front_stage_one` for the rows of a finite ``Q`` (B, nq), in one call: each row's A(q) into
         ``A[i]`` (B, nv, nv), the point's Jacobian into ``J[i]`` (B, 3, nv) and, where given, the factor
         into ``U[i]`` (B, nv, nv) and ``D[i]`` (B, nv); the values of :meth:`fill_factors` and
-        :meth:`fill_frame_jacobians`, to the bit.
+        :meth:`fill_frame_jacobians` (to rounding, for an offset point).
 
         Returns
         -------
@@ -511,7 +511,7 @@ class Mechanism:
             J6 = np.asarray(J6).reshape(6, self._dims[1])
         if point is None:
             return J6[:3]  # a view of the fresh (6, nv) array Pinocchio returned: nothing else holds it
-        return offset_point_jacobian(J6, rotate(data.oMf[fid].rotation, point))
+        return offset_point_jacobian(J6, data.oMf[fid].rotation @ point)
 
     def fill_frame_jacobians(self, Q: NDArray[np.float64], fid: int, point: NDArray[np.float64] | None,
                              J: NDArray[np.float64]) -> None:

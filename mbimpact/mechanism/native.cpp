@@ -6,8 +6,7 @@
 // headers; mbimpact/mechanism/front.py loads it only where that Pinocchio is the one running.
 // Every function fills caller-owned float64 buffers and returns a status; what it does not
 // handle (inputs that need checks with named errors, degenerate impacts) it leaves to the Python
-// route, which treats or names it. The arithmetic repeats the Python route's operation by
-// operation (no FMA contraction: -ffp-contract=off), so that both give the same bits.
+// route, which treats or names it. The results equal the Python route's to rounding.
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -140,7 +139,7 @@ bool state_valid(Bound& b, const View& q, const View* v) {
 // Stage 1 at b.q: the world-aligned Jacobian (3, nv) of a point at offset `point` (frame axes; null
 // for the frame origin) from frame `fid` into J, row-major; A(q), full symmetric, row-major, into
 // A; and A's factor A = U D Uᵀ left in the Data (what pin.impulseDynamics solves with). The
-// values of Mechanism.frame_jacobian and Mechanism.factor_arrays, to the bit.
+// values of Mechanism.frame_jacobian and Mechanism.factor_arrays (to rounding, for an offset point).
 void stage_one(Bound& b, pinocchio::FrameIndex fid, const double* point, double* A, double* J) {
   const Model& m = *b.model;
   Data& d = *b.data;

@@ -6,7 +6,7 @@ setuptools' own; the only change is that the setup it runs declares the extensio
 build environment's ``pin`` and ``cmeel-eigen`` wheels carry, and linked to their libraries. The
 extension is optional: where it cannot be built (no C++ compiler, headers missing), the install
 goes on without it and :mod:`mbimpact.mechanism.front` says why it is absent; every result is then
-computed by the Python route, to the same bits.
+computed by the Python route, the same to rounding.
 
 Not imported by the package at run time.
 """
@@ -54,8 +54,7 @@ def extension() -> Any:
         library_dirs=[str(p / "lib") for p in prefixes],
         libraries=["pinocchio_default", f"boost_python{sys.version_info[0]}{sys.version_info[1]}"],
         define_macros=DEFINES,
-        # the same bits as the Python route's arithmetic: no fused multiply-adds
-        extra_compile_args=["-std=c++17", "-O2", "-ffp-contract=off", "-fvisibility=hidden"],
+        extra_compile_args=["-std=c++17", "-O2", "-fvisibility=hidden"],
         language="c++",
         optional=True,
     )

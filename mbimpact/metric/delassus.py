@@ -30,7 +30,7 @@ from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 if TYPE_CHECKING:
     from ..mechanism.mechanism import Mechanism
 
-__all__ = ["ContactMetric", "spread_bound", "eigen_ratio", "KERNELS"]
+__all__ = ["ContactMetric", "FactoredMetric", "spread_bound", "eigen_ratio", "KERNELS"]
 
 #: The compiled core of :meth:`ContactMetric.from_mechanism` (:mod:`mbimpact.metric.kernels`).
 KERNELS = KernelModule("mbimpact.metric.kernels")
@@ -93,6 +93,11 @@ class ContactMetric:
     A: NDArray[np.float64]
     J: NDArray[np.float64]
     solver: Callable[[NDArray[np.float64]], NDArray[np.float64]] = field(repr=False)
+
+    #: A(q)'s factor (U, D) where a compiled single impact can read it at once (:class:`FactoredMetric`), else None.
+    factor = None
+    #: Whether the factor and J are the compiled front end's arrays, of the kernels' types (their dispatch is skipped).
+    trusted = False
 
     def __init__(self, A: NDArray[np.float64], J: NDArray[np.float64],
                  solver: Callable[[NDArray[np.float64]], NDArray[np.float64]]) -> None:
@@ -283,6 +288,31 @@ class ContactMetric:
     def n(self) -> int:
         """Number of generalised velocities."""
         return int(self.A.shape[0])
+
+
+class FactoredMetric(ContactMetric):
+    """The metric of a single impact of a mechanism whose factor A(q) = U D Uᵀ is at hand: a compiled single
+    impact reads the factor at once (:meth:`mbimpact.ImpactLaw.apply_metric`); everything else (W, A⁻¹Jᵀ,
+    solves, the range projector) comes from ``full()``, the metric made the usual way
+    (:meth:`ContactMetric.from_mechanism`, which names a mass matrix that is not positive definite), on
+    first access. ``U`` and ``D`` may be views of a workspace that the next impact overwrites: read them
+    before it."""
+
+    def __init__(self, A: NDArray[np.float64], J: NDArray[np.float64], U: NDArray[np.float64],
+                 D: NDArray[np.float64], full: Callable[[], ContactMetric], trusted: bool = False) -> None:
+        A.setflags(write=False)  # a result may keep it
+        self.__dict__.update(A=A, J=J, factor=(U, D), trusted=trusted, _full=full)
+
+    @_lazy
+    def metric(self) -> ContactMetric:
+        """The metric made the usual way."""
+        full: ContactMetric = self.__dict__["_full"]()
+        return full
+
+    solver = property(lambda self: self.metric.solver)
+    AinvJt = property(lambda self: self.metric.AinvJt)
+    W = property(lambda self: self.metric.W)
+    range_projector = property(lambda self: self.metric.range_projector)
 
 
 @functools.cache

@@ -11,7 +11,6 @@ A single spatial impact runs whole in two calls around the law: :func:`prepare_f
 :func:`prepare_metric` for a metric already built) computes the metric, the checks and the state
 the laws take (unit speed, W of unit trace, local frame), and :func:`finish` the outcome (1.1).
 Both work in one buffer whose head is the result (:meth:`mbimpact.ImpactResult.from_buffer`).
-Newton's law needs no Delassus matrix: :func:`newton` is its whole impact, one solve along n⁰ᵀJ.
 
 Imported on first use only (:data:`mbimpact.metric.delassus.KERNELS`): numba costs ~0.3 s to
 import, and the import compiles the kernels' explicit signatures (or loads them from numba's disk
@@ -27,8 +26,8 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-__all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "newton", "single_size", "local_views",
-           "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
+__all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "single_size", "local_views", "solve_factor",
+           "pivots_valid", "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
            "SPEED_INF", "NEAR_SINGULAR", "FULL_RANK_RATIO"]
 
 #: Status codes of :func:`prepare_factor` and :func:`prepare_metric`: the law may run; the general
@@ -54,7 +53,6 @@ _DELASSUS = types.Tuple((_OUT2, _OUT2, types.boolean))(_IN2, _IN1, _IN2)
 _PREPARE_FACTOR = types.Tuple((types.int64, _F, _F))(_IN2, _IN1, _IN2, _IN1, _IN2, _F, _F, _OUT1)
 _PREPARE_METRIC = types.Tuple((types.int64, _F, _F))(_IN2, _IN2, _IN2, _IN1, _IN2, _F, _F, _OUT1)
 _FINISH = types.Tuple((types.boolean, _F))(_IN2, _IN2, _F, _OUT1)
-_NEWTON = types.boolean(_IN2, _IN1, _IN2, _IN1, _IN2, _F, _OUT1)
 
 # half the largest float: a W whose |W_ij| sum below it cannot overflow in any sum the laws form
 _HALF_MAX = 0.5 * 1.7976931348623157e308
@@ -84,7 +82,7 @@ def local_views(buffer: NDArray[np.float64], n: int) -> tuple[NDArray[np.float64
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _solve(U: NDArray[np.float64], D: NDArray[np.float64], y: NDArray[np.float64]) -> None:  # pragma: no cover
+def solve_factor(U: NDArray[np.float64], D: NDArray[np.float64], y: NDArray[np.float64]) -> None:  # pragma: no cover
     """y ← A⁻¹ y for A = U D Uᵀ (U unit upper triangular): U z = y, z / D, Uᵀ x = z, in place."""
     n = y.shape[0]
     for i in range(n - 1, -1, -1):  # back substitution, unit diagonal
@@ -102,7 +100,7 @@ def _solve(U: NDArray[np.float64], D: NDArray[np.float64], y: NDArray[np.float64
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _pivots_valid(D: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
+def pivots_valid(D: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
     """Every pivot finite and > 0: A positive definite."""
     for i in range(D.shape[0]):
         if not (D[i] > 0.0 and D[i] < math.inf):
@@ -119,7 +117,7 @@ def _delassus_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
         y = Yt[r * n:(r + 1) * n]
         for k in range(n):
             y[k] = J[r, k]
-        _solve(U, D, y)
+        solve_factor(U, D, y)
     total, check = 0.0, 0.0
     for a in range(d):
         for b in range(a, d):
@@ -241,9 +239,10 @@ def prepare_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.f
                  R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
                  ) -> tuple[int, float, float]:  # pragma: no cover — compiled
     """:func:`prepare_factor` without its explicit signature: for other kernels that run one impact whole
-    (:func:`mbimpact.laws.rough_kernels.cone_impact`), compiled into them for their own array types."""
+    (:mod:`mbimpact.laws.compiled_cone`, :mod:`mbimpact.laws.coulomb_kernels`), compiled into them for their own
+    array types."""
     n = v.shape[0]
-    if not _pivots_valid(D):
+    if not pivots_valid(D):
         return DECLINED, 0.0, 0.0
     o = 3 * n + 12
     if not _delassus_into(U, D, J, buf[o + 21:o + 21 + 3 * n], buf[o:o + 9]):
@@ -360,80 +359,6 @@ def finish(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, b
     return finish_into(P_local, R, scale, buf)
 
 
-@njit(_NEWTON, cache=True, error_model="numpy")
-def newton(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
-           R: NDArray[np.float64], e: float, buf: NDArray[np.float64]) -> bool:  # pragma: no cover — compiled
-    """Newton's impact (1.2) of a mechanism, whole: Δv = P_n y with y = A⁻¹ Jᵀn⁰ by Pinocchio's factor
-    (what ``pin.impulseDynamics`` solves) and P_n = −(1 + e) n⁰ᵀJ v / (n⁰ᵀJ y).
-
-    Parameters
-    ----------
-    U, D : ndarray, shapes (n, n), (n,)
-        The factor A = U D Uᵀ.
-    J : ndarray, shape (d, n)
-    v : ndarray, shape (n,)
-    R : ndarray, shape (d, d)
-        Contact frame, last column n⁰.
-    e : float
-        Restitution.
-    buf : ndarray, shape (3n + 4d,) at least
-        Filled with the result: v₋, v₊, Δv, P, u₋, u₊, n⁰.
-
-    Returns
-    -------
-    bool
-        Whether the result is filled; False for what the general route treats or names: A(q) not
-        positive definite, no approach, n⁰ out of reach (|n⁰ᵀJ|² ≤ 1e-8 |J|²), or a quantity that
-        overflows. A (nearly) rank-deficient J stays here: Newton's impulse is P_n n⁰ whatever the
-        rank, and Δv = P_n y is exact.
-    """
-    d, n = J.shape
-    if not _pivots_valid(D):
-        return False
-    o = 3 * n
-    jn = buf[n:2 * n]  # n⁰ᵀJ, in the place of v₊ until that is computed
-    y = buf[2 * n:3 * n]  # A⁻¹ Jᵀn⁰, then Δv in place
-    jj, un, jnjn = 0.0, 0.0, 0.0
-    for k in range(n):
-        s = 0.0
-        for i in range(d):
-            x = J[i, k]
-            jj += x * x
-            s += R[i, d - 1] * x
-        jn[k] = s
-        y[k] = s
-        un += s * v[k]
-        jnjn += s * s
-    if not (un < 0.0 and jj < math.inf and jnjn > 1e-8 * jj):
-        return False
-    _solve(U, D, y)
-    wnn = 0.0
-    for k in range(n):
-        wnn += jn[k] * y[k]
-    if not wnn > 0.0:
-        return False
-    Pn = -(1.0 + e) * un / wnn
-    total = Pn
-    for k in range(n):
-        x = Pn * y[k]
-        y[k] = x
-        buf[k] = v[k]
-        buf[n + k] = v[k] + x
-        total += buf[n + k]
-    for i in range(d):
-        ni = R[i, d - 1]
-        buf[o + i] = Pn * ni
-        buf[o + 3 * d + i] = ni
-        s, t = 0.0, 0.0
-        for k in range(n):
-            s += J[i, k] * v[k]
-            t += J[i, k] * y[k]
-        buf[o + d + i] = s
-        buf[o + 2 * d + i] = s + t
-        total += s + t
-    return math.isfinite(total)
-
-
 def jit_seconds() -> float:
     """Wall time of one call of each kernel once the module is imported: ~0, since the import itself
     compiles the explicit signatures, or loads them from numba's on-disk cache."""
@@ -444,5 +369,4 @@ def jit_seconds() -> float:
     prepare_factor(U, D, J, v, R, 1e-14, 1e-12, buf)
     status, speed, w_scale = prepare_metric(J, np.eye(3), J, v, R, 1e-14, 1e-12, buf)
     finish(local_views(buf, 3)[1], R, speed / w_scale, buf)
-    newton(U, D, J, v, R, 0.5, buf)
     return time.perf_counter() - start

@@ -40,8 +40,7 @@ class Cone(Roughness):
     dim: ClassVar[int | None] = 3
     exact: ClassVar[bool] = False
     initial_nodes: ClassVar[int] = 32  # 32 and 64 nodes agree to ~1e-15 for ordinary W: one pass
-    methods: ClassVar[tuple[str, ...]] = ("ring", "pole-pass", "graded-pass", "graded", "cone-pair", "cone-pass",
-                                          "fixed", "adaptive", "monte-carlo")
+    methods: ClassVar[tuple[str, ...]] = ("ring", "poles", "graded", "fixed", "adaptive", "monte-carlo")
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "alpha", as_scalar("alpha", self.alpha, 0.0, math.pi / 2, hi_open=True))

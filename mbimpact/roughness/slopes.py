@@ -59,7 +59,7 @@ class IsotropicSlopes(Roughness):
     exact: ClassVar[bool] = False
     initial_nodes: ClassVar[int] = 8
     node_limit: ClassVar[int] = 256  # product rule: 2 n² facets per velocity
-    methods: ClassVar[tuple[str, ...]] = ("tilt-table", "graded-slope-pass", "graded", "slope-pass", "fixed", "adaptive", "monte-carlo")
+    methods: ClassVar[tuple[str, ...]] = ("tilt-table", "graded", "fixed", "adaptive", "monte-carlo")
     graded_rows: ClassVar[int | None] = 4  # ~10⁸ bytes a row at 128 nodes a piece
 
     def __post_init__(self) -> None:

@@ -11,7 +11,7 @@ disarmed contact that comes back below its surface is still an impact: a crossin
 ignored.
 
 Joint damping (and a PD's kd) makes the flight stiff: its velocities decay at a rate up to
-:meth:`~mbimpact.simulation.run.RunBase.damping_rate`, and an explicit method needs steps shorter
+:meth:`~mbimpact.simulation.run.RunState.damping_rate`, and an explicit method needs steps shorter
 than a few times its inverse. Above :data:`STIFF_RATE` a flight is integrated by Radau (implicit,
 L-stable, with dense output) instead of DOP853. The right-hand side reads the clock, so that
 ``max_wall_time`` holds inside a step too, and stops the run on a non-finite state instead of
@@ -26,7 +26,8 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from .run import RunBase, Stop
+from .impacts import Impacts
+from .run import RunState, Stop
 
 __all__ = ["FreeFlight"]
 
@@ -42,24 +43,28 @@ STIFF_RATE = 3e4
 _RTOL_MIN = 100 * np.finfo(float).eps
 
 
-class FreeFlight(RunBase):
-    """The free-flight phase of a run."""
+class FreeFlight:
+    """The free-flight phase of a run: it advances the run's :class:`~mbimpact.simulation.run.RunState`
+    and hands the events it finds to the run's :class:`~mbimpact.simulation.impacts.Impacts`."""
+
+    def __init__(self, state: RunState, impacts: Impacts) -> None:
+        self.state, self.impacts = state, impacts
 
     def free_phase(self, t0: float, q0: NDArray[np.float64], v0: NDArray[np.float64]
                    ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-        scene, nv = self.scene, self.nv
+        scene, nv = self.state.scene, self.state.nv
         anchor = q0.copy()
         reached = [t0]  # the last accepted time, for messages
 
         def rhs(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
-            self.check_wall_time(reached[0])  # a step may take many evaluations (rejections, Radau's Newton)
-            q, v = self.configuration(anchor, y[:nv]), y[nv:]
-            a = self.acceleration(t, q, v)
-            if self.euclidean:
+            self.state.check_wall_time(reached[0])  # a step may take many evaluations (rejections, Radau's Newton)
+            q, v = self.state.configuration(anchor, y[:nv]), y[nv:]
+            a = self.state.acceleration(t, q, v)
+            if self.state.euclidean:
                 out = np.concatenate([v, a])
             else:
                 try:
-                    dq = np.linalg.solve(pin.dIntegrate(self.model, anchor, y[:nv], pin.ARG1), v)
+                    dq = np.linalg.solve(pin.dIntegrate(self.state.model, anchor, y[:nv], pin.ARG1), v)
                 except np.linalg.LinAlgError:  # the chart's singularity, or a non-finite trial state
                     raise Stop("integration_error", f"free flight stopped at t = {reached[0]:.9g}: the chart of the "
                                                     f"configuration is singular at a trial state") from None
@@ -73,17 +78,17 @@ class FreeFlight(RunBase):
         y0 = np.concatenate([np.zeros(nv), v0])
         rtol = max(scene.rtol, _RTOL_MIN)
         atol = max(scene.rtol * 1e-3, 1e-15)
-        rate = self.damping_rate(q0)
+        rate = self.state.damping_rate(q0)
         # scipy's step-size control squares and divides by the state's scale: a huge (valid, finite) velocity
         # overflows there; a non-finite step size then stops the run below instead of warning
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             if rate > STIFF_RATE:
                 from scipy.integrate import Radau
 
-                self.work["stiff_flights"] += 1
-                solver: Any = Radau(rhs, t0, y0, scene.duration, rtol=rtol, atol=atol, max_step=self.max_step)
+                self.state.work["stiff_flights"] += 1
+                solver: Any = Radau(rhs, t0, y0, scene.duration, rtol=rtol, atol=atol, max_step=self.state.max_step)
             else:
-                solver = self.DOP853(rhs, t0, y0, scene.duration, rtol=rtol, atol=atol, max_step=self.max_step)
+                solver = self.state.DOP853(rhs, t0, y0, scene.duration, rtol=rtol, atol=atol, max_step=self.state.max_step)
         if not np.isfinite(solver.h_abs):
             raise Stop("integration_error", f"free flight stopped at t = {t0:.9g}: no finite first step "
                                             f"(|v| = {float(np.abs(v0).max()):.3g})")
@@ -93,33 +98,33 @@ class FreeFlight(RunBase):
             reached[0] = solver.t
             if solver.status == "failed":
                 raise Stop("integration_error", f"free flight stopped at t = {solver.t:.9g}: {message}")
-            self.work["free_steps"] += 1
+            self.state.work["free_steps"] += 1
             dense = solver.dense_output()
 
             def state(t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
                 y = dense(t)
-                return self.configuration(anchor, y[:nv]), y[nv:]
+                return self.state.configuration(anchor, y[:nv]), y[nv:]
 
             found = self.scan(state, solver.t_old, solver.t)
             t_end = found[0] if found else solver.t
-            self.sample_until(state, t_end)
+            self.state.sample_until(state, t_end)
             if found:
                 t_e, kind, which = found
                 q, v = state(t_e)
-                self.emit(t_e, q, v)  # the state just before the event, then just after
-                v = self.at_event(t_e, q, v, kind, which)
-                self.emit(t_e, q, v)
+                self.state.emit(t_e, q, v)  # the state just before the event, then just after
+                v = self.impacts.at_event(t_e, q, v, kind, which)
+                self.state.emit(t_e, q, v)
                 return t_e, q, v
-            self.check_limits(solver.t)
+            self.state.check_limits(solver.t)
             if solver.status == "finished":
                 q, v = state(solver.t)
-                self.emit(solver.t, q, v)
+                self.state.emit(solver.t, q, v)
                 return solver.t, q, v
-            if not self.euclidean and float(np.abs(solver.y[:nv]).max()) > 1.0:
+            if not self.state.euclidean and float(np.abs(solver.y[:nv]).max()) > 1.0:
                 # far from the anchor the chart q = anchor ⊕ dq turns singular (a rotation by 2π):
                 # a new flight from here, anchored at the current configuration
                 q, v = state(solver.t)
-                self.work["reanchor"] += 1
+                self.state.work["reanchor"] += 1
                 return solver.t, q, v
 
     def scan(self, state: Any, ta: float, tb: float) -> tuple[float, str, list[int]] | None:
@@ -131,20 +136,20 @@ class FreeFlight(RunBase):
         values = []
         for t in ts:
             q_t, v_t = state(t)
-            values.append(self.kin.rates(q_t, v_t, float(t)))
+            values.append(self.state.kin.rates(q_t, v_t, float(t)))
         gaps = np.array([g for g, _ in values])
         rates = np.array([r for _, r in values])
-        tol = self.band  # above it, a contact is off its surface (armed again); 1e-3 of it: rounding
+        tol = self.state.band  # above it, a contact is off its surface (armed again); 1e-3 of it: rounding
         first: tuple[float, str, list[int]] | None = None
         xtol = 4 * np.finfo(float).eps * max(1.0, abs(tb))
 
         def gap_of(i: int) -> Any:
-            return lambda t: float(self.kin.gaps(state(t)[0], t)[i])
+            return lambda t: float(self.state.kin.gaps(state(t)[0], t)[i])
 
         def rate_of(i: int) -> Any:
             def rate(t: float) -> float:
                 q, v = state(t)
-                return float(self.kin.rates(q, v, t)[1][i])
+                return float(self.state.kin.rates(q, v, t)[1][i])
 
             return rate
 
@@ -164,10 +169,10 @@ class FreeFlight(RunBase):
                 a = apex
             return float(brentq(gap_of(i), a, b, xtol=xtol)), "crossing"
 
-        for i in range(self.nc):
-            if self.active[i]:
+        for i in range(self.state.nc):
+            if self.state.active[i]:
                 continue
-            armed = self.armed[i]
+            armed = self.state.armed[i]
             event: tuple[float, str] | None = None
             if not armed and gaps[0, i] < -1e-3 * tol and rates[0, i] < 0:
                 # already coming back below its surface (not merely 0 ± rounding, where a contact that lifted
@@ -196,9 +201,9 @@ class FreeFlight(RunBase):
             if event is not None and (first is None or event[0] < first[0]):
                 first = (event[0], event[1], [i])
             elif event is None:
-                self.armed[i] = armed
+                self.state.armed[i] = armed
         if first is not None:
-            for i in range(self.nc):  # arming up to the event only
-                if not self.active[i] and not self.armed[i]:
-                    self.armed[i] = bool(np.any(gaps[ts <= first[0], i] > tol))
+            for i in range(self.state.nc):  # arming up to the event only
+                if not self.state.active[i] and not self.state.armed[i]:
+                    self.state.armed[i] = bool(np.any(gaps[ts <= first[0], i] > tol))
         return first

@@ -26,7 +26,7 @@ from ..errors import ImpactError
 from ..laws.newton import NewtonLaw
 from ..laws.rough import RoughLaw
 from .multi import ImpactSolver, Impulses, choose_rule
-from .run import RunBase, Stop
+from .run import RunState, Stop
 from .scene import SceneCollision, SceneContact
 from .state import ContactState, slowest
 from .trajectory import ContactEvent
@@ -42,73 +42,76 @@ def _small(scale: float) -> float:
     return 1e-12 * (1.0 + abs(scale))
 
 
-class Impacts(RunBase):
-    """The impacts of a run."""
+class Impacts:
+    """The impacts of a run, on its :class:`~mbimpact.simulation.run.RunState`."""
+
+    def __init__(self, state: RunState) -> None:
+        self.state = state
 
     def at_event(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], kind: str, which: list[int]
                  ) -> NDArray[np.float64]:
         if kind == "touch":
             i = which[0]
-            self.active[i] = True
-            self.event(ContactEvent(t, i, "rest", 0.0, rule="touch"))
+            self.state.active[i] = True
+            self.state.event(ContactEvent(t, i, "rest", 0.0, rule="touch"))
             return v
-        gaps, rates = self.kin.rates(q, v, t)
-        tol = self.band
-        group = sorted(set(which) | {j for j in range(self.nc) if not self.active[j] and gaps[j] <= tol and rates[j] < 0})
+        gaps, rates = self.state.kin.rates(q, v, t)
+        tol = self.state.band
+        group = sorted(set(which) | {j for j in range(self.state.nc) if not self.state.active[j] and gaps[j] <= tol and rates[j] < 0})
         if not any(rates[j] < 0.0 for j in group):  # on the surface but not approaching: nothing strikes
             for j in group:
-                if rates[j] <= self.scene.rest_velocity:  # grazing along it: it rests there
-                    self.active[j] = True
-                    self.event(ContactEvent(t, j, "rest", float(rates[j]), rule="touch"))
+                if rates[j] <= self.state.scene.rest_velocity:  # grazing along it: it rests there
+                    self.state.active[j] = True
+                    self.state.event(ContactEvent(t, j, "rest", float(rates[j]), rule="touch"))
                 else:
-                    self.armed[j] = False
+                    self.state.armed[j] = False
             return v
         return self.impact(t, q, v, group)
 
     def impact(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], group: list[int]) -> NDArray[np.float64]:
         """The impact of the contacts ``group`` at (t, q, v): open contacts striking, or persistent
         pairs with a further point striking. Returns the velocity after it."""
-        scene = self.scene
+        scene = self.state.scene
         rest_velocity = scene.rest_velocity
         # a contact striking again within chatter_time is in persistent contact: its impacts are
         # plastic and frictional (the persistent contact's μ), no longer its law's
         chatter_time = float(scene.chatter_time)  # type: ignore[arg-type]  # set by Scene
-        points = self.kin.state_map(q, v, t, sorted(set(group) | {i for i in range(self.nc) if self.active[i]}))
+        points = self.state.kin.state_map(q, v, t, sorted(set(group) | {i for i in range(self.state.nc) if self.state.active[i]}))
         chatter, where = [], {}
         for i in group:
             mine = points.get(i, [])
-            if self.active[i] or not mine:
+            if self.state.active[i] or not mine:
                 continue
-            same, where[i] = self.kin.same_feature(i, q, np.array([s.point for s in mine]), self.last_struck[i])
+            same, where[i] = self.state.kin.same_feature(i, q, np.array([s.point for s in mine]), self.state.last_struck[i])
             # a pair striking elsewhere on its body (another corner of a box) is a new impact, not chatter,
             # and starts a new series of rebounds (for the Zeno tail)
             if not same:
-                self.rebounds[i].clear()
-            elif t - self.last_impact[i] < chatter_time:
+                self.state.rebounds[i].clear()
+            elif t - self.state.last_impact[i] < chatter_time:
                 chatter.append(i)
         for i in chatter:
-            self.active[i] = True
+            self.state.active[i] = True
             t_rest = self.zeno_tail(i, t)
-            self.rebounds[i].clear()
-            self.event(ContactEvent(t_rest, i, "rest", rule="chatter" + (" after the Zeno tail" if t_rest > t else "")))
-        secondary = [i for i in group if self.active[i] and i not in chatter]
-        opening = [i for i in group if not self.active[i]]
-        active = [i for i in range(self.nc) if self.active[i]]
+            self.state.rebounds[i].clear()
+            self.state.event(ContactEvent(t_rest, i, "rest", rule="chatter" + (" after the Zeno tail" if t_rest > t else "")))
+        secondary = [i for i in group if self.state.active[i] and i not in chatter]
+        opening = [i for i in group if not self.state.active[i]]
+        active = [i for i in range(self.state.nc) if self.state.active[i]]
         # the struck points: every point of an open contact; the fast-approaching points of a resting pair
         struck: list[ContactState] = [s for i in opening for s in points.get(i, [])]
         struck += [s for i in secondary for s in points.get(i, []) if s.un < -rest_velocity]
         struck_ids = {id(s) for s in struck}
         persistent = [s for i in active for s in points.get(i, []) if id(s) not in struck_ids]
-        A, factor = self.mech.factorise(q)
-        solver = ImpactSolver(self.laws, self.frictions, A, factor.solve, self.rng, self.cones, scene.samples)
+        A, factor = self.state.mech.factorise(q)
+        solver = ImpactSolver(self.state.laws, self.state.frictions, A, factor.solve, self.state.rng, self.state.cones, scene.samples)
         if not struck:
             now = [s for s in persistent if s.un < 0.0]
             if now:
                 out = solver.plastic(persistent)
-                self.work["plastic_contact"] += 1
+                self.state.work["plastic_contact"] += 1
                 v = v + out.dv
             return v
-        laws = [self.laws[s.index] for s in struck]
+        laws = [self.state.laws[s.index] for s in struck]
         rule = "law" if len(struck) == 1 else choose_rule(scene.simultaneous, laws)
         totals: dict[tuple[int, int], Any] = {}
         v_new = v.copy()
@@ -127,7 +130,7 @@ class Impacts(RunBase):
             again = [s for s in struck if s.at(v_new).un < -_small(s.un)]
             if pushed:
                 out = solver.plastic([s.at(v_new) for s in persistent])
-                self.work["plastic_contact"] += 1
+                self.state.work["plastic_contact"] += 1
                 v_new = v_new + out.dv
                 for key, P in out.P.items():
                     totals[key] = totals.get(key, 0.0) + P
@@ -137,41 +140,41 @@ class Impacts(RunBase):
         else:  # the alternation does not settle: one plastic frictional impulse at all of them
             out = solver.plastic([s.at(v_new) for s in struck + persistent])
             v_new = v_new + out.dv
-        self.impacts += 1
+        self.state.impacts += 1
         by_contact: dict[int, list[ContactState]] = {}
         for s in struck:
             by_contact.setdefault(s.index, []).append(s)
         self.record_impacts(t, by_contact, v_new, totals, rule, error, len(by_contact))
-        if self.impacts >= scene.max_impacts:
+        if self.state.impacts >= scene.max_impacts:
             raise Stop("max_impacts", f"max_impacts = {scene.max_impacts} reached at t = {t:.9g}")
         for i, mine in by_contact.items():
             if i in secondary:  # a further point of a resting pair: the pair stays persistent
                 continue
             un = max(s.at(v_new).un for s in mine)  # the contact leaves when all its points do
-            self.last_impact[i] = t
-            self.last_struck[i] = where.get(i)
+            self.state.last_impact[i] = t
+            self.state.last_struck[i] = where.get(i)
             if un < rest_velocity:
                 self.rest(t, i, un)
             else:
-                self.armed[i] = False
-                self.rebounds[i].append((t, un))
+                self.state.armed[i] = False
+                self.state.rebounds[i].append((t, un))
         for i in active:  # thrown off its surface by the impact elsewhere
             mine = [s for s in persistent if s.index == i]
             if mine and i not in secondary and min(s.at(v_new).un for s in mine) > rest_velocity:
                 b = slowest(mine)
                 a = b.at(v_new)
-                self.active[i], self.armed[i] = False, False
-                self.event(ContactEvent(t, i, "lift", b.un, b.ut, a.un, a.ut))
+                self.state.active[i], self.state.armed[i] = False, False
+                self.state.event(ContactEvent(t, i, "lift", b.un, b.ut, a.un, a.ut))
         return v_new
 
     def strike(self, solver: ImpactSolver, struck: list[ContactState], active: list[ContactState], rule: str,
                q: NDArray[np.float64], v: NDArray[np.float64], t: float) -> Impulses:
         """The impulses of the struck points by ``rule`` ("law": each by its contact's law)."""
         if len(struck) == 1 or rule == "law":
-            out = Impulses(np.zeros(self.nv), {}, "law")
+            out = Impulses(np.zeros(self.state.nv), {}, "law")
             for s in sorted(struck, key=lambda s: s.un):
-                law = self.laws[s.index]
-                self.work["facet_average" if isinstance(law, RoughLaw) else "newton_impact"
+                law = self.state.laws[s.index]
+                self.state.work["facet_average" if isinstance(law, RoughLaw) else "newton_impact"
                           if isinstance(law, NewtonLaw) else "coulomb_impact"] += 1
                 now = s.at(v + out.dv)
                 if now.un >= 0.0:
@@ -179,7 +182,7 @@ class Impacts(RunBase):
                 one = solver.single(now, law.dim)
                 out = Impulses(out.dv + one.dv, _add(out.P, one.P), one.rule)
             return out
-        self.work[f"simultaneous_{rule}"] += 1
+        self.state.work[f"simultaneous_{rule}"] += 1
         if rule == "newton":
             return solver.newton(struck, active)
         if rule == "rough":
@@ -187,13 +190,13 @@ class Impacts(RunBase):
         if rule == "compliant":
             return self.compliant(struck, q, v, t)
         # sequential: each point by its contact's law, the most approaching first, until none approaches
-        total = Impulses(np.zeros(self.nv), {}, "sequential")
+        total = Impulses(np.zeros(self.state.nv), {}, "sequential")
         scale = max(abs(s.un) for s in struck)
         for _ in range(MAX_ROUNDS):
             worst = min((s.at(v + total.dv) for s in struck), key=lambda s: s.un)
             if worst.un >= -_small(scale):
                 break
-            one = solver.single(worst, self.laws[worst.index].dim)
+            one = solver.single(worst, self.state.laws[worst.index].dim)
             total = Impulses(total.dv + one.dv, _add(total.P, one.P), "sequential")
         return total
 
@@ -203,7 +206,7 @@ class Impacts(RunBase):
         from ..compliant.resolve import resolve
         from ..mechanism.contact import PointContact
 
-        scene, mech = self.scene, self.mech
+        scene, mech = self.state.scene, self.state.mech
         contacts = []
         for s in struck:
             c = scene.contacts[s.index]
@@ -213,16 +216,16 @@ class Impacts(RunBase):
                 contacts.append(PointContact(c.frame, normal=s.normal, point=c.point))
             elif isinstance(c, SceneCollision) and c.obstacle is not None:
                 # the witness point as a point of its body's frame
-                frame = self.model.names[mech.collision_model().joint(str(c.body))]
-                pin.framesForwardKinematics(self.model, self.data, q)
-                local = self.data.oMf[mech.frame_id(frame)].actInv(s.point)
+                frame = self.state.model.names[mech.collision_model().joint(str(c.body))]
+                pin.framesForwardKinematics(self.state.model, self.state.data, q)
+                local = self.state.data.oMf[mech.frame_id(frame)].actInv(s.point)
                 contacts.append(PointContact(frame, normal=s.normal, point=local))
             else:
                 raise Stop("integration_error", f"the 'compliant' rule needs frame contacts or obstacles; contact "
                                                 f"{s.index} ({c.label}) is a pair of the mechanism's own bodies")
         try:
             res = resolve(mech, q, v, contacts, M=[scene.contacts[s.index].stiffness for s in struck],
-                          e=[self.laws[s.index].e for s in struck], dynamics="impact")
+                          e=[self.state.laws[s.index].e for s in struck], dynamics="impact")
         except ImpactError as exc:
             raise Stop("integration_error", f"compliant resolution of contacts {sorted({s.index for s in struck})} "
                                             f"at t = {t:.9g} failed: {exc}") from exc
@@ -243,24 +246,24 @@ class Impacts(RunBase):
                 Pk = totals.get(s.key)
                 if Pk is not None:
                     work -= 0.5 * float(np.asarray(Pk) @ (s.u + s.at(v_after).u))
-            self.event(ContactEvent(
+            self.state.event(ContactEvent(
                 t, i, "impact", b.un, b.ut, a.un, a.ut, -a.un / b.un if b.un < 0 else 0.0,
                 pt / pn if pn > 0 else 0.0, float(np.linalg.norm(P)), work,
-                repr(self.laws[i]) if rule == "law" else rule, together, len(mine), b.point.copy()))
+                repr(self.state.laws[i]) if rule == "law" else rule, together, len(mine), b.point.copy()))
 
     def rest(self, t: float, i: int, un: float) -> None:
         """Contact i comes to rest after an impact with rebound ``un`` below rest_velocity."""
         t_rest = self.zeno_tail(i, t, un)
-        self.active[i] = True
-        self.rebounds[i].clear()
-        self.event(ContactEvent(t_rest, i, "rest", un, rule="rest" if t_rest == t else "rest after the Zeno tail"))
+        self.state.active[i] = True
+        self.state.rebounds[i].clear()
+        self.state.event(ContactEvent(t_rest, i, "rest", un, rule="rest" if t_rest == t else "rest after the Zeno tail"))
 
     def zeno_tail(self, i: int, t: float, un: float | None = None) -> float:
         """The limit of contact i's accumulating bounces, from the impact at ``t`` (with rebound ``un``,
         or, when None, the impact it is about to make): the bounces left last in proportion to their
         rebound speeds, which shrink by the ratio r of the last rebounds, so they sum to a geometric
         series. ``t`` itself when the rebounds do not shrink geometrically."""
-        history = self.rebounds[i]
+        history = self.state.rebounds[i]
         if un is not None:
             history = history + [(t, un)]
         if len(history) < 3 or not history[-1][1] > 0.0:

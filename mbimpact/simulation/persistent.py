@@ -19,7 +19,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from .run import RunBase, Stop
+from .impacts import Impacts
+from .run import RunState, Stop
 from .scene import SceneContact
 from .trajectory import ContactEvent
 
@@ -29,79 +30,83 @@ __all__ = ["Persistent"]
 Solve = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
 
-class Persistent(RunBase):
-    """The persistent-contact phase of a run."""
+class Persistent:
+    """The persistent-contact phase of a run: it advances the run's :class:`~mbimpact.simulation.run.RunState`
+    and hands new strikes to the run's :class:`~mbimpact.simulation.impacts.Impacts`."""
+
+    def __init__(self, state: RunState, impacts: Impacts) -> None:
+        self.state, self.impacts = state, impacts
 
     def contact_phase(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]
                       ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-        scene = self.scene
-        gaps0 = self.kin.gaps(q, t)
+        scene = self.state.scene
+        gaps0 = self.state.kin.gaps(q, t)
         instant = 0  # events in a row at the same instant
-        while t < scene.duration and any(self.active):
+        while t < scene.duration and any(self.state.active):
             h = min(scene.contact_step, scene.duration - t)
             free = self.free_velocity(t, q, v, h)
             if self.separating(t, q, v, free[0], h, gaps0):
                 break  # every persistent contact lifted off: free flight from here
             w = self.step_velocity(t, q, v, h, free)  # the step's velocity, expressed at q: the path is q ⊕ s w
-            q1 = self.step_configuration(q, h * w)
-            v1 = self.transport(q, q1, w)
-            gaps1, rates1 = self.kin.rates(q1, v1, t + h)
+            q1 = self.state.step_configuration(q, h * w)
+            v1 = self.state.transport(q, q1, w)
+            gaps1, rates1 = self.state.kin.rates(q1, v1, t + h)
             hit = self.path_crossing(t, q, w, h, gaps0, gaps1, rates1)
             if hit is not None:
                 s, group = hit
-                pushing, forces = list(self.pushing), self.forces.copy()
+                pushing, forces = list(self.state.pushing), self.state.forces.copy()
                 t_s, q_s, v_s = t, q, v
                 if s > 0.0:
                     # the velocity of a step of length s, on the path the crossing was found on (so that
                     # the struck point is on its surface)
-                    q_s, t_s = self.step_configuration(q, s * w), t + s
-                    v_s = self.transport(q, q_s, self.step_velocity(t, q, v, s))
-                gaps, rates = self.kin.rates(q_s, v_s, t_s)
-                if any(self.active[i] and gaps[i] < -0.1 * self.band for i in range(self.nc)):
+                    q_s, t_s = self.state.step_configuration(q, s * w), t + s
+                    v_s = self.state.transport(q, q_s, self.step_velocity(t, q, v, s))
+                gaps, rates = self.state.kin.rates(q_s, v_s, t_s)
+                if any(self.state.active[i] and gaps[i] < -0.1 * self.state.band for i in range(self.state.nc)):
                     # the persistent points drift O(s²) below their surfaces inside a step: back on them
                     q_s = self.project(t_s, q_s, gaps)
-                    gaps, rates = self.kin.rates(q_s, v_s, t_s)
-                group = sorted(set(group) | {j for j in range(self.nc) if not self.active[j]
-                                             and gaps[j] <= self.band and rates[j] < 0})
-                logged = len(self.events)
-                v_after = self.impact(t_s, q_s, v_s, group)
-                if len(self.events) > logged or v_after is not v_s:
+                    gaps, rates = self.state.kin.rates(q_s, v_s, t_s)
+                group = sorted(set(group) | {j for j in range(self.state.nc) if not self.state.active[j]
+                                             and gaps[j] <= self.state.band and rates[j] < 0})
+                logged = len(self.state.events)
+                v_after = self.impacts.impact(t_s, q_s, v_s, group)
+                if len(self.state.events) > logged or v_after is not v_s:
                     instant = instant + 1 if t_s == t else 0
                     if instant > 100:
                         raise Stop("event_limit", f"no progress at t = {t:.9g}: contacts {group} strike again and "
                                                   "again at the same instant")
-                    self.emit(t_s, q_s, v_s)
+                    self.state.emit(t_s, q_s, v_s)
                     t, q, v = t_s, q_s, v_after
-                    self.emit(t, q, v)
-                    gaps0 = self.kin.gaps(q, t)
-                    self.check_limits(t)
+                    self.state.emit(t, q, v)
+                    gaps0 = self.state.kin.gaps(q, t)
+                    self.state.check_limits(t)
                     continue
                 # nothing struck (a further point of a resting pair arriving slower than rest_velocity):
                 # it joins the persistent contact through the step's gap term and the projection
-                self.pushing, self.forces = pushing, forces
+                self.state.pushing, self.state.forces = pushing, forces
             instant = 0
-            if any(self.active[i] and gaps1[i] < -0.1 * self.band for i in range(self.nc)):
+            if any(self.state.active[i] and gaps1[i] < -0.1 * self.state.band for i in range(self.state.nc)):
                 q1 = self.project(t + h, q1, gaps1)
-                gaps1, rates1 = self.kin.rates(q1, v1, t + h)
+                gaps1, rates1 = self.state.kin.rates(q1, v1, t + h)
             t, q, v, gaps0 = t + h, q1, v1, gaps1
-            self.work["contact_steps"] += 1
+            self.state.work["contact_steps"] += 1
             self.lift_offs(t, gaps1, rates1)
-            while self.next_sample < len(self.grid) and self.grid[self.next_sample] <= t + 1e-12:
-                self.next_sample += 1
-                self.emit(t, q, v)
-            self.check_limits(t)
+            while self.state.next_sample < len(self.state.grid) and self.state.grid[self.state.next_sample] <= t + 1e-12:
+                self.state.next_sample += 1
+                self.state.emit(t, q, v)
+            self.state.check_limits(t)
         return t, q, v
 
     def free_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float
                       ) -> tuple[NDArray[np.float64], Solve]:
         """The velocity v + h a_free after a step of length h without contact forces (expressed at q), and
         the solve b ↦ K⁻¹ b of the step's mass matrix K (A, or A + h D with damping), for its impulses."""
-        A, factor = self.mech.factorise(q)
-        if self.damper.any():
+        A, factor = self.state.mech.factorise(q)
+        if self.state.damper.any():
             # the velocity-proportional torques implicitly, (A + h D) v⁺ = A (v + h a₀) + Jᵀλ with a₀ the
             # acceleration without them: explicitly v⁺ would grow by |1 − h·rate| a step, unstable once
             # h·rate > 2 (rate = damping_rate, up to 1e9 1/s for the damping allowed on light bodies)
-            K = A + h * np.diag(self.damper)
+            K = A + h * np.diag(self.state.damper)
             a0 = self.step_acceleration(t, q, v, damped=False)
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught as non-finite below
                 v_free = np.asarray(np.linalg.solve(K, A @ (v + h * a0)), float)
@@ -123,18 +128,18 @@ class Persistent(RunBase):
         """One step of Moreau's scheme: v⁺ = v + h a_free + A⁻¹ Jcᵀ λ with λ on the cones (v⁺ expressed
         at q; the step then moves q along q ⊕ s v⁺), and the contact forces of the step. ``free``:
         :meth:`free_velocity` of this step, when already computed."""
-        active = [i for i in range(self.nc) if self.active[i]]
+        active = [i for i in range(self.state.nc) if self.state.active[i]]
         v_free, solve = self.free_velocity(t, q, v, h) if free is None else free
-        states = self.kin.states(q, v_free, t, active)
+        states = self.state.kin.states(q, v_free, t, active)
         Jc = np.vstack([s.frame.T @ s.J for s in states])
         AinvJt = solve(Jc.T)
         G = Jc @ AinvJt
         G = 0.5 * (G + G.T)
         g = np.empty(3 * len(states))
         for k, s in enumerate(states):
-            c = self.scene.contacts[s.index]
+            c = self.state.scene.contacts[s.index]
             if isinstance(c, SceneContact) and c.surface.moving:
-                self.work["surface_motion"] += 1
+                self.state.work["surface_motion"] += 1
                 # the mean velocity of the surface over the step: the gap then closes exactly
                 mean = (c.surface.offset(t + h)[0] - c.surface.offset(t)[0]) / h * c.surface.normal
                 u = s.J @ v_free - mean
@@ -142,17 +147,17 @@ class Persistent(RunBase):
                 u = s.u
             g[3 * k: 3 * k + 3] = s.frame.T @ u
             g[3 * k + 2] += s.gap / h  # the predicted gap at the step's end stays ≥ 0
-        mus = tuple(self.frictions[s.index] for s in states)
+        mus = tuple(self.state.frictions[s.index] for s in states)
         if any(mus):
-            self.work["friction_cone"] += 1
-        lam = self.cones.solve(G, g, mus)
+            self.state.work["friction_cone"] += 1
+        lam = self.state.cones.solve(G, g, mus)
         scale = float(np.abs(lam[2::3]).max(initial=0.0))
-        self.forces[:] = 0.0
+        self.state.forces[:] = 0.0
         for i in active:
-            self.pushing[i] = False
+            self.state.pushing[i] = False
         for k, s in enumerate(states):
-            self.pushing[s.index] |= bool(lam[3 * k + 2] > 1e-9 * scale)
-            self.forces[s.index] += s.frame @ lam[3 * k: 3 * k + 3] / h
+            self.state.pushing[s.index] |= bool(lam[3 * k + 2] > 1e-9 * scale)
+            self.state.forces[s.index] += s.frame @ lam[3 * k: 3 * k + 3] / h
         return v_free + AinvJt @ lam
 
     def separating(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], v_free: NDArray[np.float64],
@@ -173,25 +178,25 @@ class Persistent(RunBase):
         at the step's end. Not when it is below the rounding: the step's gap term puts it back on its
         surface first.
         """
-        rounding = 1e-3 * self.band
-        active = [i for i in range(self.nc) if self.active[i]]
+        rounding = 1e-3 * self.state.band
+        active = [i for i in range(self.state.nc) if self.state.active[i]]
         if any(gaps[i] < -rounding for i in active):
             return False
         dv = 0.5 * h * (v_free - v)  # h² a / 2
         with np.errstate(over="ignore", invalid="ignore"):  # a huge trial state is simply not separating
-            ahead, behind = self.step_configuration(q, h * v + dv), self.step_configuration(q, -h * v + dv)
+            ahead, behind = self.state.step_configuration(q, h * v + dv), self.state.step_configuration(q, -h * v + dv)
         if not (np.isfinite(ahead).all() and np.isfinite(behind).all()):
             return False
-        gaps_ahead, rates_ahead = self.kin.rates(ahead, self.transport(q, ahead, v_free), t + h)
+        gaps_ahead, rates_ahead = self.state.kin.rates(ahead, self.state.transport(q, ahead, v_free), t + h)
         if not all(rates_ahead[i] > 0.0 for i in active):
             return False
-        gaps_behind = self.kin.gaps(behind, t - h)
+        gaps_behind = self.state.kin.gaps(behind, t - h)
         if not all(gaps_ahead[i] + gaps_behind[i] - 2.0 * gaps[i] > rounding for i in active):
             return False
-        _, rates = self.kin.rates(q, v, t)
+        _, rates = self.state.kin.rates(q, v, t)
         for i in active:
-            self.active[i], self.armed[i], self.pushing[i] = False, False, False
-            self.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i]), rule="free motion"))
+            self.state.active[i], self.state.armed[i], self.state.pushing[i] = False, False, False
+            self.state.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i]), rule="free motion"))
         return True
 
     def step_acceleration(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], damped: bool = True
@@ -206,8 +211,8 @@ class Persistent(RunBase):
         by O(h²) — a torque-free spinning body on a frictionless plane gained 0.2 % of its energy in
         0.25 s (issue #14).
         """
-        a = self.acceleration(t, q, v, damped)
-        if self.free_flyer:
+        a = self.state.acceleration(t, q, v, damped)
+        if self.state.free_flyer:
             with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught as non-finite by the caller
                 a[:3] += np.cross(v[3:6], v[:3])
         return a
@@ -217,20 +222,20 @@ class Persistent(RunBase):
         rotating body's points move along straight lines for a step). When that puts a contact below
         its surface, the smallest change of q in the kinetic metric that puts the pushing points
         (and any below the surface) at gap 0."""
-        active = [i for i in range(self.nc) if self.active[i]]
+        active = [i for i in range(self.state.nc) if self.state.active[i]]
         for _ in range(3):
             # the next step's gap term closes small drifts; a drift below the surface is projected now
-            if not any(gaps[i] < -0.1 * self.band for i in active):
+            if not any(gaps[i] < -0.1 * self.state.band for i in active):
                 return q
-            rows = [s for s in self.kin.states(q, np.zeros(self.nv), t, active)
-                    if self.pushing[s.index] or s.gap < 0.0]
+            rows = [s for s in self.state.kin.states(q, np.zeros(self.state.nv), t, active)
+                    if self.state.pushing[s.index] or s.gap < 0.0]
             Jn = np.array([s.normal @ s.J for s in rows])
-            A, factor = self.mech.factorise(q)
+            A, factor = self.state.mech.factorise(q)
             AinvJt = factor.solve(Jn.T)
             dq = -AinvJt @ np.linalg.lstsq(Jn @ AinvJt, np.array([s.gap for s in rows]), rcond=1e-12)[0]
-            q = self.configuration(q, dq)
-            gaps = self.kin.gaps(q, t)
-            self.work["projection"] += 1
+            q = self.state.configuration(q, dq)
+            gaps = self.state.kin.gaps(q, t)
+            self.state.work["projection"] += 1
         return q
 
     def path_crossing(self, t: float, q: NDArray[np.float64], v1: NDArray[np.float64], h: float,
@@ -243,27 +248,27 @@ class Persistent(RunBase):
         the crossing, and the contact."""
         from scipy.optimize import brentq
 
-        tol = self.band
+        tol = self.state.band
         xtol = 4 * np.finfo(float).eps * max(1.0, h)
         first: tuple[float, list[int]] | None = None
-        for i in range(self.nc):
-            if self.active[i]:
-                if not (self.kin.is_pair(i) and g1[i] < -0.1 * tol and r1[i] < -self.scene.rest_velocity):
+        for i in range(self.state.nc):
+            if self.state.active[i]:
+                if not (self.state.kin.is_pair(i) and g1[i] < -0.1 * tol and r1[i] < -self.state.scene.rest_velocity):
                     continue
                 # the material point that is nearest at the step's end, followed back along the path
-                gap = self.kin.material_gap(i, self.step_configuration(q, h * v1), t + h)
+                gap = self.state.kin.material_gap(i, self.state.step_configuration(q, h * v1), t + h)
                 if gap(q) <= 0.0:  # on the surface already: a resting point drifting, for the projection
                     continue
-                s = brentq(lambda s, gap=gap: gap(self.step_configuration(q, s * v1)), 0.0, h, xtol=xtol)
+                s = brentq(lambda s, gap=gap: gap(self.state.step_configuration(q, s * v1)), 0.0, h, xtol=xtol)
             else:
-                if not self.armed[i] and g0[i] > tol:
-                    self.armed[i] = True
-                if not (g1[i] < 0.0 and (self.armed[i] or r1[i] < 0.0)):
+                if not self.state.armed[i] and g0[i] > tol:
+                    self.state.armed[i] = True
+                if not (g1[i] < 0.0 and (self.state.armed[i] or r1[i] < 0.0)):
                     continue
                 if g0[i] < 0.0:
                     s = 0.0
                 else:
-                    s = brentq(lambda s, i=i: float(self.kin.gaps(self.step_configuration(q, s * v1), t + s)[i]), 0.0, h,
+                    s = brentq(lambda s, i=i: float(self.state.kin.gaps(self.state.step_configuration(q, s * v1), t + s)[i]), 0.0, h,
                                xtol=xtol)
             if first is None or s < first[0]:
                 first = (s, [i])
@@ -271,11 +276,11 @@ class Persistent(RunBase):
 
     def lift_offs(self, t: float, gaps: NDArray[np.float64], rates: NDArray[np.float64]) -> None:
         """A persistent contact whose gap opened (the cone gave it no push) becomes open."""
-        for i in range(self.nc):
-            if self.active[i] and not self.pushing[i] and gaps[i] > self.band and rates[i] > 0.0:
-                self.active[i], self.armed[i] = False, False
-                self.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i])))
-            elif self.active[i] and gaps[i] < -self.scene.tolerance:
-                raise Stop("penetration", f"persistent contact {i} ({self.scene.contacts[i].label}) is "
+        for i in range(self.state.nc):
+            if self.state.active[i] and not self.state.pushing[i] and gaps[i] > self.state.band and rates[i] > 0.0:
+                self.state.active[i], self.state.armed[i] = False, False
+                self.state.event(ContactEvent(t, i, "lift", 0.0, 0.0, float(rates[i])))
+            elif self.state.active[i] and gaps[i] < -self.state.scene.tolerance:
+                raise Stop("penetration", f"persistent contact {i} ({self.state.scene.contacts[i].label}) is "
                                           f"{-gaps[i]:.3g} m inside its surface at t = {t:.9g}, beyond the tolerance "
-                                          f"{self.scene.tolerance:g} m; reduce contact_step")
+                                          f"{self.state.scene.tolerance:g} m; reduce contact_step")

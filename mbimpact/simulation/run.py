@@ -1,11 +1,13 @@
-"""The state of one simulation run and its bookkeeping, shared by the phases of the run.
+"""The state of one simulation run and its bookkeeping: one explicit object the parts of the run take.
 
-:class:`RunBase` holds what every phase reads and writes: the scene, Pinocchio's workspace,
-each contact's mode (open and armed, open and disarmed after an impact, persistent), the
-output samples, the event log and the counters of the work done, and the limits that stop a
-run with a named status. The phases are in :mod:`~mbimpact.simulation.flight` (free flight),
-:mod:`~mbimpact.simulation.impacts` (impacts) and :mod:`~mbimpact.simulation.persistent`
-(persistent contact); :mod:`~mbimpact.simulation.simulator` runs them.
+:class:`RunState` holds what every part reads and writes: the scene, Pinocchio's workspace, each
+contact's mode (open and armed, open and disarmed after an impact, persistent), the output samples,
+the event log and the counters of the work done, and the limits that stop a run with a named status.
+The parts are :class:`~mbimpact.simulation.flight.FreeFlight`,
+:class:`~mbimpact.simulation.impacts.Impacts` and :class:`~mbimpact.simulation.persistent.Persistent`,
+each made with the state (and the impacts, which the phases hand their events to);
+:mod:`~mbimpact.simulation.simulator` runs them. Progress is reported to a callable the caller passes
+in (the apps layer draws it).
 """
 
 from __future__ import annotations
@@ -13,13 +15,13 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter, deque
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ..apps.progress import Progress
 from ..laws.base import ImpactLaw
 from ..laws.newton import NewtonLaw
 from ..laws.rough import RoughLaw
@@ -29,7 +31,11 @@ from .kinematics import ContactKinematics
 from .scene import Scene, SceneContact
 from .trajectory import ContactEvent
 
-__all__ = ["BAND_MAX", "RunBase", "Stop", "scene_law"]
+__all__ = ["BAND_MAX", "RunState", "Stop", "scene_law", "Progress"]
+
+#: A progress callback: ``progress(percent, note)`` is called as the simulated time passes each percent of the
+#: scene's duration (at most 100 times a run), with a short note of the work done.
+Progress = Callable[[int, str], None]
 
 # a window of simulated time over which the event rate is measured [s]
 RATE_WINDOW = 0.01
@@ -61,10 +67,10 @@ class Stop(Exception):
         self.status, self.message = status, message
 
 
-class RunBase:
+class RunState:
     """One run of a scene: state, output and limits (see the module docstring)."""
 
-    def __init__(self, scene: Scene, samples: int, progress: bool) -> None:
+    def __init__(self, scene: Scene, samples: int, progress: Progress | None) -> None:
         self.start = time.perf_counter()  # max_wall_time counts the set-up (a first import of scipy) too
         from scipy.integrate import DOP853  # deferred: scipy.integrate costs 0.1 s to import
 
@@ -115,7 +121,7 @@ class RunBase:
         freqs = [c.surface.frequency for c in scene.contacts if isinstance(c, SceneContact) and c.surface.moving]
         # a moving surface can cross a flight twice within a long step: a step is a fraction of its period
         self.max_step = min(1.0 / (16.0 * max(freqs)) if freqs else math.inf, scene.duration / 4)
-        self.bar = Progress(100, scene.name, enabled=progress)
+        self.progress = progress
         self.shown = 0
 
     # ---------------------------------------------------------------- forces and dynamics
@@ -221,24 +227,15 @@ class RunBase:
 
     def check_limits(self, t: float) -> None:
         self.check_wall_time(t)
-        now = int(100 * t / self.scene.duration)
-        while self.shown < min(now, 100):
-            self.bar.step(f"t={t:.3g}s, {self.impacts} impacts")
+        self.report(int(100 * t / self.scene.duration), f"t={t:.3g}s, {self.impacts} impacts")
+
+    def report(self, percent: int, note: str) -> None:
+        """Tell the progress callback of every percent of the duration passed up to ``percent``."""
+        progress = self.progress
+        while self.shown < min(percent, 100):
             self.shown += 1
-
-    # ---------------------------------------------------------------- phases (defined by the mixins)
-    def impact(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], group: list[int]) -> NDArray[np.float64]:
-        raise NotImplementedError
-
-    def at_event(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], kind: str, which: list[int]
-                 ) -> NDArray[np.float64]:
-        raise NotImplementedError
-
-    def rest(self, t: float, i: int, un: float) -> None:
-        raise NotImplementedError
-
-    def zeno_tail(self, i: int, t: float, un: float | None = None) -> float:
-        raise NotImplementedError
+            if progress is not None:
+                progress(self.shown, note)
 
     def sample_until(self, state: Any, t_end: float) -> None:
         """Emit the output grid points up to ``t_end`` (``state(t)`` gives (q, v))."""

@@ -38,7 +38,7 @@ def test_bench_quick_writes_report_csv_and_png(tmp_path, capsys):
     slopes = {(r["method"], float(r["param"])): float(r["error"]) for r in acc if "GaussianSlopes" in r["case"]}
     graded = [slopes["graded tilt x azimuth", n] for n in (8, 16, 32)]
     assert graded == sorted(graded, reverse=True) and graded[-1] < 1e-10
-    assert slopes["laplace (rtol=1e-12)", 0] < 1e-10 and slopes["graded-slope-pass (rtol=1e-12)", 0] < 1e-10
+    assert slopes["laplace (rtol=1e-12)", 0] < 1e-10 and slopes["graded, compiled (rtol=1e-12)", 0] < 1e-10
     assert slopes["Monte Carlo", 100_000] > 1e-3
     over = [r for r in rows if r["part"] == "overhead"]
     assert {r["case"] for r in over} >= {"ur5", "solo12"}

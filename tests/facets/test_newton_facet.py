@@ -36,7 +36,7 @@ def test_newton_facet_is_todays_law_bit_for_bit(rough: mbi.Roughness, methods: t
         positional = mbi.RoughLaw(rough, NewtonFacet(0.6), method=method, **kw).contact_impulses(W, U)
         assert np.array_equal(old.P, new.P) and np.array_equal(old.P, positional.P)
         assert old.method == new.method == method  # Newton facets keep the bare averaging name
-    one = U[7:8]  # single velocities: "auto" takes the cone-pair shortcut on a cone
+    one = U[7:8]  # single velocities: "auto" takes the adaptive rule's compiled backend on a cone
     old = mbi.RoughLaw(rough, 0.6).contact_impulses(W, one)
     new = mbi.RoughLaw(rough, facet=NewtonFacet(0.6)).contact_impulses(W, one)
     assert np.array_equal(old.P, new.P) and old.method == new.method
@@ -81,7 +81,7 @@ def test_facet_frames_are_rotations_onto_the_facet_normal(rng: np.random.Generat
 
 def test_non_newton_facets_refuse_the_closed_form_averages() -> None:
     for facet in (CoulombFacet(0.5, 0.3), CompliantFacet(0.5, 0.3, 0.8), HuntCrossleyFacet(0.1)):
-        for method in ("ring", "cone-pair"):
+        for method in ("ring", "poles"):
             with pytest.raises(mbi.ParameterError, match=f"'{method}' averaging integrates Newton facets"):
                 mbi.RoughLaw(mbi.Cone(0.3), facet=facet, method=method)
         with pytest.raises(mbi.ParameterError, match="tilt-table"):

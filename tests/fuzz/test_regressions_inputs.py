@@ -281,8 +281,9 @@ def test_newton_at_a_nearly_rank_deficient_jacobian_is_exact(seed, sigma_min):
     """The robot fuzzer's xarm7 reproducer (pin.seed(103), link4): Newton's Δv differed from the dense
     solution by 2.5e-5 relative because a nearly rank-deficient J (σ_min/σ_max ≈ 4e-7, W's eigenvalues
     1e-13 apart) took the general route, which projects P on range(W) and moves Δv by up to
-    √(λ_min/λ_max) |Δv|. Newton's impulse is P_n n⁰ whatever the rank: single, batch and stacked calls
-    agree with the dense solution to rounding × cond A, and report I = A Δv."""
+    √(λ_min/λ_max) |Δv|. Newton's impulse is P_n n⁰ whatever the rank: single calls, batches and the
+    compiled impact on A's factor (stacked) agree with the dense solution to rounding × cond A, and report
+    I = A Δv."""
     A, J, v, n0 = _nearly_rank_deficient(seed, sigma_min)
     y = np.linalg.solve(A, J.T @ n0)
     jn = n0 @ J
@@ -295,9 +296,15 @@ def test_newton_at_a_nearly_rank_deficient_jacobian_is_exact(seed, sigma_min):
     assert res.residual < 1e-12
     batch = law.apply_batch(A, J, np.stack([v, 2 * v]), n0)
     np.testing.assert_allclose(batch.V_plus, [expected, 2 * expected], rtol=0, atol=2 * tol)
-    stacked = law.apply_stack(np.stack([A, A]), np.stack([J, J]), np.stack([v, 2 * v]),
-                              np.stack([mbi.local_basis(n0, 3)] * 2))
-    assert stacked is not None
+    # A = U D Uᵀ, U unit upper triangular (Pinocchio's layout): Cholesky of A with its axes reversed
+    rev = np.arange(len(A))[::-1]
+    upper = np.linalg.cholesky(A[np.ix_(rev, rev)])[np.ix_(rev, rev)]
+    D = np.diag(upper) ** 2
+    Uf = upper / np.diag(upper)[None, :]
+    R = mbi.local_basis(n0, 3)
+    stacked = law.compiled_impact().run_stack(law, np.stack([A, A]), np.stack([Uf, Uf]), np.stack([D, D]),
+                                              np.stack([J, J]), np.stack([v, 2 * v]), np.stack([R, R]),
+                                              lambda i: pytest.fail(f"row {i} declined"))
     np.testing.assert_allclose(stacked.V_plus, [expected, 2 * expected], rtol=0, atol=2 * tol)
 
 

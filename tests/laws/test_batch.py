@@ -115,8 +115,9 @@ def _assert_rows_are_single_impacts(batch, singles):
 ])
 def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, hard, kernel_threads):
     """A rough cone across configurations runs the single impact's compiled call once for all rows
-    (RoughLaw.apply_factored_stack): each row is mbimpact.impact's result at its configuration to the last
-    bit, on generic and on strongly anisotropic W, with the methods that settled each row reported."""
+    (CompiledImpact.run_stack): each row is mbimpact.impact's result at its configuration (the same code on
+    the same machine: to the bit), on generic and on strongly anisotropic W, with the methods that settled
+    each row reported."""
     mech = mechanism(robot)
     Q = np.stack([mech.random_configuration(rng) for _ in range(30)])
     if hard is None:
@@ -126,13 +127,13 @@ def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, fra
     contact = mbi.PointContact(frame)
     V = _approaching_rows(mech, Q, contact, rng)
     law = mbi.RoughLaw(mbi.Cone(0.4), 0.5)
-    assert law.factored_stack()
+    assert law.compiled_impact() is not None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.NoSeparationWarning)
         batch = mbi.impact_batch(mech, Q, V, contact, law)
         singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
     _assert_rows_are_single_impacts(batch, singles)
-    expected = {"ur5": {"pole-pass", "cone-pair"}, "solo12": {"cone-pair", "cone-pass"}}[robot]
+    expected = {"ur5": {"poles", "adaptive[compiled]"}, "solo12": {"adaptive[compiled]"}}[robot]
     assert expected <= set(batch.method.split("+"))
     assert np.all(batch.energy_loss >= 0.0)
 
@@ -140,15 +141,15 @@ def test_rough_cone_impact_batch_is_the_single_impact_row_by_row(rng, robot, fra
 @pytest.mark.parametrize("robot, frame", [("ur5", "tool0"), ("solo12", "FL_FOOT"), ("panda", "panda_hand")])
 def test_coulomb_impact_batch_is_the_single_impact_row_by_row(rng, robot, frame, kernel_threads):
     """The Coulomb law across configurations runs its compiled single impact once for all rows
-    (CoulombLaw.apply_factored_stack): every row, closed form or integrated turning slip, under each
-    restitution hypothesis, is mbimpact.impact's result to the last bit."""
+    (CompiledImpact.run_stack): every row, closed form or integrated turning slip, under each restitution
+    hypothesis, is mbimpact.impact's result."""
     mech = mechanism(robot)
     contact = mbi.PointContact(frame)
     Q = np.stack([mech.random_configuration(rng) for _ in range(40)])
     V = _approaching_rows(mech, Q, contact, rng)
     for law in (mbi.CoulombLaw(0.5, 0.3), mbi.CoulombLaw(0.2, 0.8, restitution="poisson"),
                 mbi.CoulombLaw(0.0, 0.1, restitution="newton")):
-        assert law.factored_stack()
+        assert law.compiled_impact() is not None
         batch = mbi.impact_batch(mech, Q, V, contact, law)
         singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
         _assert_rows_are_single_impacts(batch, singles)
@@ -193,7 +194,7 @@ def test_rough_cone_impact_batch_warns_once_for_the_rows_that_still_approach(rng
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         batch = mbi.impact_batch(mech, Q, V, contact, law)
-    assert not batch.separates.any() and batch.method == "pole-pass"  # homogeneity: every row as the first
+    assert not batch.separates.any() and batch.method == "poles"  # homogeneity: every row as the first
     assert [type(w.message) for w in caught] == [mbi.NoSeparationWarning]
     assert "kappa < 0" in str(caught[0].message) and caught[0].filename == __file__
     Q = np.stack([mech.random_configuration(rng) for _ in range(4)])  # generic postures, normal incidence
@@ -268,10 +269,7 @@ def test_impact_batch_names_a_later_rows_contact_error_in_row_order(rng, law, ke
     V = _approaching_rows(mech, Q, contact, rng)
     batch = mbi.impact_batch(mech, Q, V, contact, law)
     singles = [mbi.impact(mech, q, v, contact, law) for q, v in zip(Q, V)]
-    if law.factored_stack():
-        _assert_rows_are_single_impacts(batch, singles)
-    else:  # Newton's vectorised closed form: to rounding
-        np.testing.assert_allclose(batch.V_plus, [r.v_plus for r in singles], rtol=1e-11, atol=1e-11)
+    _assert_rows_are_single_impacts(batch, singles)
     Q[17, 0] = 3.1
     with pytest.raises(mbi.GeometryError, match="q\\[0\\] = 3.1"):
         mbi.impact_batch(mech, Q, V, contact, law)
@@ -335,40 +333,29 @@ def test_impact_batch_reads_no_garbage_of_rows_the_kernel_leaves(rng, kernel_thr
                 mbi.impact_batch(mech, Q, V, contact, law)
 
 
-def test_a_law_without_a_factored_route_says_so(rng):
-    """Only a law whose factored_stack() is True takes apply_factored_stack; the others say what has one."""
+def test_a_law_declares_its_compiled_impact_and_a_subclass_takes_the_pipeline(rng):
+    """Only a law whose compiled_impact() is not None runs its rows in one compiled call; a subclass, which may
+    change any step, takes the pipeline, and impact_batch honours what it changed."""
     mech = mechanism("ur5")
-    q = mech.random_configuration(rng)
-    A, U, D = (a.copy()[None] for a in mech.factor_arrays(q))
-    J, V, R = mech.point_jacobian(q, "tool0")[None], -mech.point_jacobian(q, "tool0")[2][None], np.eye(3)[None]
     gaussian = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
-    assert not gaussian.factored_stack() and not mbi.NewtonLaw(0.5).factored_stack()
+    assert gaussian.compiled_impact() is None and mbi.NewtonLaw(0.5).compiled_impact() is not None
+    assert mbi.RoughLaw(mbi.Cone(0.4), 0.5, method="adaptive").compiled_impact() is None
 
-    class Floats(mbi.CoulombLaw):  # overrides the pipeline: its impacts take its own route
-        def apply_metric(self, metric, v, R):
-            return super().apply_metric(metric, v, R)
-
-    class Frictionless(mbi.CoulombLaw):  # changes the law the compiled route runs: impact_batch must honour it
-        def single_impulse(self, W, U):
-            out = super().single_impulse(W, U)
+    class Frictionless(mbi.CoulombLaw):  # changes the law: impact and impact_batch must honour it
+        def contact_impulses(self, W, U):
+            out = super().contact_impulses(W, U)
             out.P[..., :2] = 0.0
             return out
 
-    assert not Floats(0.5, 0.3).factored_stack() and not Frictionless(0.5, 0.7).factored_stack()
-    with pytest.raises(mbi.ParameterError, match="overrides apply_metric"):
-        Floats(0.5, 0.3).apply_factored_stack(A, U, D, J, V, R, lambda i: None)
+    assert Frictionless(0.5, 0.7).compiled_impact() is None
     Q = np.stack([mech.random_configuration(rng) for _ in range(3)])
     contact = mbi.PointContact("tool0")
     VV = _approaching_rows(mech, Q, contact, rng)
     batch = mbi.impact_batch(mech, Q, VV, contact, Frictionless(0.5, 0.7))
     _assert_rows_are_single_impacts(batch, [mbi.impact(mech, q, v, contact, Frictionless(0.5, 0.7))
                                             for q, v in zip(Q, VV)])
-    assert np.all(batch.P[:, :2] == 0.0)
-    with pytest.raises(mbi.ParameterError, match="a Cone by method='auto'"):
-        gaussian.apply_factored_stack(A, U, D, J, V, R, lambda i: None)
-    with pytest.raises(NotImplementedError, match="NewtonLaw"):
-        mbi.NewtonLaw(0.5).apply_factored_stack(A, U, D, J, V, R, lambda i: None)
-    assert not mbi.RoughLaw(mbi.Cone(0.4), 0.5, method="adaptive").factored_stack()
+    R = contact.basis()
+    assert np.allclose(batch.P @ R[:, :2], 0.0, atol=1e-15 * np.abs(batch.P).max())
 
 
 def test_impact_batch_names_a_bad_row_as_the_row_by_row_route_does(rng):

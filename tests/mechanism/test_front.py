@@ -1,5 +1,6 @@
-"""The compiled front end (mbimpact.mechanism.front): built by this install, and the same bits as the
-Python route for every law that takes it, with the same errors for what it hands back."""
+"""The compiled front end (mbimpact.mechanism.front): built by this install, and the Python route's results
+to rounding for every law that takes it, with the same decisions and the same errors for what it hands
+back."""
 
 import os
 import pickle
@@ -33,16 +34,27 @@ def outcome(mech, q, v, contact, law):
             return type(exc), str(exc)
 
 
-def assert_same(got, want):
+def assert_same(got, want, exact: bool = False):
+    """The same result (to rounding; to the bit with ``exact``: one route on one machine) or the same error.
+    Where a stopping test decided otherwise on a difference at rounding, both results are still converged:
+    within 1e-9 of each other."""
     if isinstance(want, tuple):
         assert got == want
         return
     assert not isinstance(got, tuple), got
+    same = (got.method, got.nodes) == (want.method, want.nodes)
+    assert same or not exact
+    tol = 0.0 if exact else 1e-11 * max(1.0, np.linalg.cond(want.A) * 1e-4) if same else 1e-9
+    scale = max(np.abs(want.v_minus).max(), np.abs(want.u_minus).max(), 1e-300)
     for name in FIELDS:
         a, b = getattr(got, name), getattr(want, name)
-        assert np.array_equal(a, b), name
         if isinstance(a, np.ndarray):
             assert a.shape == b.shape and not a.flags.writeable, name
+            np.testing.assert_allclose(a, b, rtol=0, atol=tol * max(np.abs(b).max(), scale), err_msg=name)
+        elif name == "error_estimate":
+            assert abs(a - b) <= (0.0 if exact else 1e-9 + 1e-6 * abs(b)), name
+        elif same:
+            assert a == b, name
 
 
 def test_this_install_built_it():
@@ -59,9 +71,9 @@ def test_this_install_built_it():
 
 @pytest.mark.skipif(not front.available(), reason="compiled front end not in use")
 @given(st.sampled_from(ROBOTS), seeds, st.sampled_from(range(len(LAWS))), st.booleans())
-def test_the_same_bits_as_the_python_route(name, seed, which, offset):
-    """Every field of every law's result, or the error it raises, equals the Python route's: random
-    robots, frames, normals, offsets, configurations and velocities (half of them approaching)."""
+def test_the_python_routes_results(name, seed, which, offset):
+    """Every field of every law's result, or the error it raises, equals the Python route's to rounding:
+    random robots, frames, normals, offsets, configurations and velocities (half of them approaching)."""
     mech = mechanism(name)
     rng = np.random.default_rng(seed)
     frames = [f.name for f in mech.model.frames if f.parentJoint > 0]
@@ -124,7 +136,7 @@ def test_a_contact_that_overrides_the_jacobian_keeps_its_own():
 
 def test_a_contact_that_overrides_the_basis_is_applied_as_the_pipeline_applies_it():
     """A PointContact subclass with its own basis() is applied by the pipeline (the front end hands its
-    frame to compiled kernels unchecked), which takes that basis as the contact frame: the same bits with
+    frame to compiled kernels unchecked), which takes that basis as the contact frame: the same result with
     the front end on and off."""
 
     class Turned(mbi.PointContact):
@@ -182,7 +194,7 @@ def test_threads_each_get_their_own_workspace():
         t.join()
     for k in range(2):
         for a, b in zip(got[k], alone):
-            assert_same(a, b)
+            assert_same(a, b, exact=True)
 
 
 @pytest.mark.skipif(not front.available(), reason="compiled front end not in use")
@@ -216,7 +228,7 @@ def test_results_it_packs_pickle_and_read_back():
     J = mech.point_jacobian(q, "left_sole_link")
     res = mbi.impact(mech, q, -J[2] / (J[2] @ J[2]), mbi.PointContact("left_sole_link"), mbi.NewtonLaw(0.3))
     back = pickle.loads(pickle.dumps(res))
-    assert_same(back, res)
+    assert_same(back, res, exact=True)
     np.testing.assert_array_equal(res.A, mech.mass_matrix(q))
     np.testing.assert_array_equal(res.J, J)
     assert res.kappa == pytest.approx(0.3, abs=1e-9)
@@ -253,9 +265,9 @@ def test_the_build_backend_finds_the_headers_it_compiles_against():
 
 @pytest.mark.parametrize("law", [LAWS[1], LAWS[2], LAWS[3]], ids=repr)
 def test_batches_gathered_by_it_equal_single_impacts(law):
-    """impact_batch's rows gathered by the front end (offset point, free flyer) are the Python route's, and
-    impact()'s to the bit on the factored routes (Newton's batch solves with LAPACK: to rounding); a row
-    with an unnormalised quaternion raises its error in row order."""
+    """impact_batch's rows gathered by the front end (offset point, free flyer) are the Python route's to
+    rounding, and impact()'s (the same compiled code on one machine: to the bit); a row with an unnormalised
+    quaternion raises its error in row order."""
     mech = mechanism("solo12")
     rng = np.random.default_rng(9)
     contact = mbi.PointContact("HR_FOOT", normal=[0.1, 0.0, 1.0], point=[0.01, -0.02, 0.0])
@@ -272,12 +284,10 @@ def test_batches_gathered_by_it_equal_single_impacts(law):
             python = mbi.impact_batch(mech, Q, V, contact, law)
         for i in range(0, 24, 5):
             single = mbi.impact(mech, Q[i], V[i], contact, law)
-            if isinstance(law, mbi.NewtonLaw):
-                np.testing.assert_allclose(batch.V_plus[i], single.v_plus, rtol=1e-12, atol=1e-12)
-            else:
-                np.testing.assert_array_equal(batch.V_plus[i], single.v_plus)
+            np.testing.assert_array_equal(batch.V_plus[i], single.v_plus)
             np.testing.assert_array_equal(batch.J[i], single.J)
-    np.testing.assert_array_equal(batch.V_plus, python.V_plus)
+    scale = np.abs(V).max()
+    np.testing.assert_allclose(batch.V_plus, python.V_plus, rtol=0, atol=1e-11 * scale)
     np.testing.assert_array_equal(batch.A, python.A)
     Q[7, 3] = 2.0  # the base quaternion, not normalised
     with pytest.raises(mbi.ParameterError, match="not normalised"):

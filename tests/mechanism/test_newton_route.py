@@ -1,4 +1,4 @@
-"""NewtonLaw on a mechanism (NewtonLaw.apply_mechanism): one compiled call on Pinocchio's factor, one
+"""NewtonLaw on a mechanism (NewtonLaw.compiled_impact): one compiled call on Pinocchio's factor, one
 solve along n⁰ᵀJ, no Delassus matrix; the same closed form as the arrays route, to rounding."""
 
 import pickle
@@ -133,17 +133,17 @@ def test_singular_mass_matrix_is_named():
 
 
 @pytest.mark.parametrize("name", ["ur5", "solo12", "talos"])
-@pytest.mark.parametrize("d", [3, 2])
-def test_the_route_is_the_closed_form_of_apply_metric_to_rounding(name, d):
-    """Without the metric, the same closed form on the same factor (spatial and planar contacts):
-    equal to apply_metric on ContactMetric.from_mechanism to a few ulps of each field's scale."""
+def test_the_compiled_impact_is_the_closed_form_of_apply_metric_to_rounding(name):
+    """Without the metric, the same closed form on the same factor: equal to apply_metric on
+    ContactMetric.from_mechanism to a few ulps of each field's scale."""
     mech, q, v, contact, J, n0 = state(name, 11)
     law = mbi.NewtonLaw(0.3)
-    Jc, R = contact.jacobian(mech, q, d)
+    Jc, R = contact.jacobian(mech, q, 3)
     if Jc.dot(v) @ R[:, -1] >= 0:
         v = -v
-    res = law.apply_mechanism(mech, q, v, Jc, R)
-    assert res.method == "closed-form" and res.J.shape == (d, mech.nv) and not res.P.flags.writeable
+    A, U, D = mech.factor_arrays(q)
+    res = law.compiled_impact().run(law, A, U.copy(), D.copy(), Jc, v, R, False)
+    assert res.method == "closed-form" and res.J.shape == (3, mech.nv) and not res.P.flags.writeable
     ref = law.apply_metric(mbi.ContactMetric.from_mechanism(mech, q, Jc.copy()), v, R)
     for name_ in FIELDS + ("v_minus", "n0"):
         got, want = getattr(res, name_), getattr(ref, name_)

@@ -88,8 +88,8 @@ def test_compile_kernels_makes_every_registered_module_ready():
     numpy), nor Newton's impact of a mechanism where the compiled front end runs it whole; the first
     rough impact of a mechanism does (its route is compiled), and so does Newton's without the front end."""
     out = mbi.compile_kernels()
-    assert {"mbimpact.metric.kernels", "mbimpact.averaging.cone_kernels", "mbimpact.laws.coulomb_kernels",
-            "mbimpact.averaging.slope_pass_kernels"} <= set(out)
+    assert {"mbimpact.metric.kernels", "mbimpact.averaging.compiled.cone", "mbimpact.laws.coulomb_kernels",
+            "mbimpact.averaging.compiled.slopes", "mbimpact.laws.newton_kernels", "mbimpact.laws.compiled_cone"} <= set(out)
     assert all(t >= 0.0 for pair in out.values() for t in pair)
     code = ("import sys, numpy as np, mbimpact as mbi; assert 'numba' not in sys.modules; "
             "m = mbi.Mechanism.from_robot('ur5'); q = m.neutral() + 0.3; J = m.point_jacobian(q, 'tool0'); "

@@ -15,7 +15,8 @@ import numpy as np
 
 from ...geometry import GapModel, GeometryContact, HalfSpace
 from ...laws import RoughLaw
-from ...mechanism import Mechanism, PointContact, impact
+from ...mechanism import Mechanism, PointContact
+from ...pipeline import impact
 from ...roughness import Cone
 from ..progress import Progress
 from .common import BenchRow, per_call

@@ -34,7 +34,8 @@ import numpy as np
 import pinocchio as pin
 
 from ...laws import CoulombLaw, NewtonLaw, RoughLaw
-from ...mechanism import Mechanism, PointContact, impact, impact_batch
+from ...mechanism import Mechanism, PointContact
+from ...pipeline import impact, impact_batch
 from ...roughness import Cone
 from ..progress import Progress
 from ...common.threads import kernel_threads, set_kernel_threads

@@ -1,4 +1,4 @@
-"""The compiled core of :class:`~mbimpact.averaging.GradedPass`: a cone's graded rule for one velocity, in one call.
+"""A cone's graded rule of (2.8) for one velocity: the compiled backend of :class:`~mbimpact.averaging.Graded`.
 
 A nearly singular Delassus matrix W makes q(φ) = m(φ)ᵀ W m(φ) small near its minima on the ring
 of facets, and the kernels of (2.8) with the flux weights of (2.7) peak there with widths ε ≪ 1.
@@ -10,12 +10,12 @@ of facets, and the kernels of (2.8) with the flux weights of (2.7) peak there wi
 the ring has a narrow peak), the facing interval cut at the minima inside it, every piece halved
 and each half mapped by φ = a ± ε sinh t onto its graded end a, Gauss–Legendre in t, and the
 levels n, 2n, 4n, … nodes a piece with the adaptive rule's error estimate and stopping rule. The
-nodes of a half-piece are computed and summed in SIMD lanes (:mod:`~mbimpact.averaging.graded_sums`),
+nodes of a half-piece are computed and summed in SIMD lanes (:mod:`~mbimpact.averaging.compiled.half_pieces`),
 the half-pieces added with compensation. Its result is :class:`~mbimpact.averaging.Graded`'s to
 rounding.
 
 The module is imported on first use only (numba costs ~0.3 s to import:
-:data:`mbimpact.averaging.graded_pass.KERNELS`). Run with ``NUMBA_DISABLE_JIT=1``, the same source
+:data:`mbimpact.averaging.compiled.GRADED_CONE`). Run with ``NUMBA_DISABLE_JIT=1``, the same source
 runs interpreted.
 """
 
@@ -29,20 +29,13 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from ..quadrature.rules import gauss_legendre
-from .cone_kernels import NOT_SETTLED, compensated_add, level_decision, rounding_floor
-from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
+from ...quadrature.rules import gauss_legendre
+from .half_pieces import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
+from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NOT_FACING, NOT_PEAKED, NOT_SETTLED, SETTLED, compensated_add,
+                         level_decision, rounding_floor)
 
-__all__ = ["rule_table", "ring_form", "ring_minima_into", "minima_sensitivity", "ring_peaks", "graded_pass",
-           "graded_levels", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING", "NOT_PEAKED", "STALLED",
-           "CAPPED"]
-
-# status codes of :func:`graded_pass`: the velocity is settled to rtol, or why not (STALLED and CAPPED are
-# the adaptive rule's AccuracyWarning cases: rounding amplified by an ill-conditioned W, max_nodes)
-SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, STALLED, CAPPED = 0, 1, 2, 3, 4, 5
-
-# machine epsilon (a constant of float64, safe to freeze into the compiled code)
-_EPS = float(np.finfo(float).eps)
+__all__ = ["rule_table", "ring_form", "ring_minima_into", "minima_sensitivity", "ring_peaks", "graded_cone",
+           "graded_levels", "jit_seconds"]
 
 # Newton on q' = 0 stops at this many ε of the rounding of q'/q'' (ring_minima's _NEWTON_ROUNDING)
 _NEWTON_ROUNDING = 16.0
@@ -131,7 +124,7 @@ def ring_minima_into(form: tuple[float, float, float, float, float], peaked: flo
         return 0
     # ring_minima: a trigonometric polynomial of degree 2 has at most two local minima (and so has its
     # sampling: a grid minimum brackets one, and two grid minima are not adjacent)
-    noise = _NEWTON_ROUNDING * _EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
+    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
     k = 0
     for i in range(64):
         q = q0 + a1 * _GRID[0, i] + b1 * _GRID[1, i] + a2 * _GRID[2, i] + b2 * _GRID[3, i]
@@ -189,7 +182,7 @@ def minima_sensitivity(s: float, c: float, W: NDArray[np.float64], phi: NDArray[
         size = (a0 * (abs(W[0, 0]) * a0 + abs(W[0, 1]) * a1 + abs(W[0, 2]) * c)
                 + a1 * (abs(W[1, 0]) * a0 + abs(W[1, 1]) * a1 + abs(W[1, 2]) * c)
                 + c * (abs(W[2, 0]) * a0 + abs(W[2, 1]) * a1 + abs(W[2, 2]) * c))
-        worst = max(worst, power * _EPS * size / qmin)
+        worst = max(worst, power * EPS * size / qmin)
     return worst
 
 
@@ -226,7 +219,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: ND
     ``ends`` (4, pieces): every half-piece's graded end a, direction ±1, width ε of its map
     and T = asinh(ℓ / ε); its nodes are φ = a ± ε sinh t, t = T (x + 1) / 2, with weights
     ε cosh t (T / 2) w / 2π (:func:`~mbimpact.quadrature.graded.graded_azimuth_rule`'s arithmetic),
-    summed half-piece by half-piece (:mod:`~mbimpact.averaging.graded_sums`) in W's own frame: a frame
+    summed half-piece by half-piece (:mod:`~mbimpact.averaging.compiled.half_pieces`) in W's own frame: a frame
     turned to u_t would perturb W's entries by their rounding, which moves q near a minimum by far more
     than the nodes' own rounding does, differently at every level."""
     d, n0, n1, n2 = 0.0, 0.0, 0.0, 0.0
@@ -257,8 +250,8 @@ def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: ND
 def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
                   levels: int, peaked: float, configuration: bool, e: float, rtol: float, degenerate: float,
                   P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
-    """:func:`graded_pass` without its explicit signature: other kernels
-    (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
+    """:func:`graded_cone` without its explicit signature: other kernels (a single cone impact,
+    :mod:`mbimpact.laws.compiled_cone`) compile it for their own array types."""
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
     k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
@@ -309,7 +302,7 @@ def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], 
         if status:
             return status, m
         start += m
-        decision, err = level_decision(coarse, fine, W, rtol, pieces * m, True, previous, P, error)
+        decision, err = level_decision(coarse, fine, W, rtol, pieces * m, previous, P, error)
         if decision == SETTLED:  # P and error written: the estimate also holds what the levels cannot see
             error[0] = max(error[0], minima_sensitivity(s, c, W, phi_star, k, 1.0 if configuration else 0.5),
                            rounding_floor(P, W))
@@ -321,7 +314,7 @@ def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], 
 
 
 @njit(_PASS, cache=True, error_model="numpy")
-def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+def graded_cone(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
                 peaked: float, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
                 error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
     """(2.8) for one unit velocity on a cone by the graded rule, refined as the adaptive rule refines it:
@@ -358,17 +351,17 @@ def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
     error : ndarray, shape (1,)
         Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at its
         minima (:func:`minima_sensitivity`) and that of P itself
-        (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`), which no level reduces and which may
-        exceed rtol.
+        (:func:`~mbimpact.averaging.compiled.primitives.rounding_floor`), which no level reduces and which
+        may exceed rtol.
 
     Returns
     -------
     status : int
-        :data:`SETTLED` (``P`` and ``error`` are written); :data:`NOT_PEAKED` where
-        :meth:`mbimpact.Cone.graded_rule` gives no graded rule; :data:`STALLED` or :data:`CAPPED`
-        where the adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified
-        by an ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET` (a node on a
-        facet the mechanism cannot push), :data:`NOT_FACING` (no weight).
+        ``SETTLED`` (``P`` and ``error`` are written); ``NOT_PEAKED`` where
+        :meth:`mbimpact.Cone.graded_rule` gives no graded rule; ``STALLED`` or ``CAPPED`` where the
+        numpy rule would stop short of rtol with an AccuracyWarning (rounding amplified by an
+        ill-conditioned W; the last level of the table); ``DEGENERATE_FACET`` (a node on a facet the
+        mechanism cannot push), ``NOT_FACING`` (no weight): :mod:`~mbimpact.averaging.compiled.primitives`.
     nodes : int
         The node count a piece of the last level computed.
     """
@@ -376,13 +369,13 @@ def graded_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`ring_peaks` and :func:`graded_pass` callable in this process (numba's
+    """Wall time to make :func:`ring_peaks` and :func:`graded_cone` callable in this process (numba's
     import excluded: importing this module does it): their machine code loaded from numba's on-disk
     cache (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The
     first call pays it; later calls return near 0."""
     start = time.perf_counter()
     W = np.diag([1e-6, 1.0, 1.0])  # q has two sharp minima on a tilted ring
     ring_peaks(0.4, W, 0.15)
-    graded_pass(0.4, W, np.array([[0.6, 0.0, -0.8]]), rule_table(4, 3), 3, 0.15, True, 0.5, 1e-12, 1e-14,
+    graded_cone(0.4, W, np.array([[0.6, 0.0, -0.8]]), rule_table(4, 3), 3, 0.15, True, 0.5, 1e-12, 1e-14,
                 np.empty((1, 3)), np.empty(1))
     return time.perf_counter() - start

@@ -1,19 +1,19 @@
-"""The compiled core of :class:`~mbimpact.averaging.PolePass`: a cone's peaked kernels integrated with their
-poles taken out, for one velocity in one call.
+"""A cone's peaked kernels of (2.8) integrated with their poles taken out, for one velocity: the compiled
+rule of :class:`~mbimpact.averaging.Poles`.
 
 With the physical flux of (2.7) the kernels of (2.8) on a cone of facets,
 f_j(φ) = (mᵀu)² m_j / q(φ) with q = mᵀWm, are rational functions of z = e^{iφ}:
 q(z) = m(z)ᵀ W m(z) with m(z) = (s (z + 1/z)/2, s (z − 1/z)/2i, c) is a Laurent polynomial of degree
 2 whose zeros come in pairs (a, 1/ā). A nearly singular W puts a pair close to the unit circle, one
 pair at each minimum of q on the ring, and f_j peaks there with the width ε of the minimum
-(:func:`mbimpact.averaging.graded_kernels.ring_minima_into`). Instead of grading the nodes towards the
+(:func:`mbimpact.averaging.compiled.graded_cone.ring_minima_into`). Instead of grading the nodes towards the
 peaks, :func:`pole_levels` removes them: with r_j = T_j(a) / q'(a) the residue of f_j at a
 (T_j = (mᵀu)² m_j), the function
 
     s_j(φ) = 2 Re[r_j / (e^{iφ} − a)]
 
 has the poles of f_j at a and at 1/ā with their residues (f_j is real on the circle), so f_j − Σ s_j is
-smooth there, and the plain rule of the facing arc (:func:`mbimpact.averaging.cone_kernels.rule_table`:
+smooth there, and the plain rule of the facing arc (:func:`mbimpact.averaging.compiled.cone.rule_table`:
 Gauss–Legendre on the arc, the trapezoid rule on the whole ring) integrates it with 32 or 64 nodes.
 The subtracted part is integrated in closed form:
 
@@ -24,15 +24,15 @@ the whole ring. The subtraction is exact for any a; how close a is to the zero d
 the remainder is. The zeros are therefore polished by Newton's method on q(z) evaluated as m(z)ᵀWm(z)
 from the entries of W, the arithmetic in which q is small where it is small; from the coefficients of
 the Laurent polynomial they lose digits as ε² shrinks, and the remainder keeps a spike. Refinement and
-stopping rule are those of the adaptive rule (:func:`mbimpact.averaging.cone_kernels.level_decision`).
+stopping rule are those of the adaptive rule (:func:`mbimpact.averaging.compiled.primitives.level_decision`).
 
 Level differences do not see how sensitive the answer is to the rounding of W itself: at a minimum of q,
 an ulp of W's entries moves q by up to ε Σ |W_ik| |m_i| |m_k| relative to q_min, and the peak's integral,
 which goes as q_min^(-1/2), by half that. Where this bound exceeds rtol (most velocities on rings through
 W's null direction at cond W ≳ 1e5) the pass declines (STALLED) and the graded rule decides; elsewhere the
 reported error is the largest of the level difference, this bound
-(:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`) and the rounding of P itself where W
-nearly annihilates it (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`). Independent checks
+(:func:`~mbimpact.averaging.compiled.graded_cone.minima_sensitivity`) and the rounding of P itself where W
+nearly annihilates it (:func:`~mbimpact.averaging.compiled.primitives.rounding_floor`). Independent checks
 against 36-digit references (734 cases, cond 1e3–1e8, the physical flux) found the true error of every
 settled velocity within this estimate but one, 1.12× over it at 5e-14 (its 16 → 32 level difference
 understated the 32-node error), and no error above rtol.
@@ -52,25 +52,17 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from .cone_kernels import NOT_SETTLED, level_decision, rounding_floor
-from .graded_kernels import (CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, SETTLED, STALLED, minima_sensitivity,
-                             ring_form, ring_minima_into)
+from .graded_cone import minima_sensitivity, ring_form, ring_minima_into
+from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NOT_FACING, NOT_PEAKED, NOT_SETTLED, SETTLED, STALLED,
+                         UNRESOLVED, level_decision, rounding_floor)
 
-__all__ = ["pole_levels", "pole_pass", "ring_zero", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
-           "NOT_PEAKED", "STALLED", "CAPPED", "UNRESOLVED"]
-
-#: Status of :func:`pole_levels` where a zero of q near a minimum could not be resolved (Newton did not
-#: converge, or two minima led to one zero): the graded rule takes over.
-UNRESOLVED = 7
-
-# machine epsilon (a constant of float64, safe to freeze into the compiled code)
-_EPS = float(np.finfo(float).eps)
+__all__ = ["pole_levels", "poles", "ring_zero", "jit_seconds"]
 
 # Newton's iterations on a zero of q, and its stopping step relative to |a|
 _NEWTON_STEPS = 60
-_NEWTON_TOL = 4 * _EPS
+_NEWTON_TOL = 4 * EPS
 
-# rows of cone_kernels.rule_table
+# rows of cone.rule_table
 _GL_NODE, _GL_WEIGHT, _RING_COS, _RING_SIN, _RING_WEIGHT = range(5)
 
 
@@ -114,8 +106,8 @@ def ring_zero(s: float, c: float, W: NDArray[np.float64], phi: float, eps: float
 def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
                 levels: int, peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
                 error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """:func:`pole_pass` without its explicit signature: other kernels
-    (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
+    """:func:`poles` without its explicit signature: other kernels (a single cone impact,
+    :mod:`mbimpact.laws.compiled_cone`) compile it for their own array types."""
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
     k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
@@ -189,7 +181,7 @@ def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
             return NOT_FACING, m
         fine[0], fine[1], fine[2] = (1.0 + e) * n0 / d, (1.0 + e) * n1 / d, (1.0 + e) * n2 / d
         if level > 0:
-            decision, err = level_decision(coarse, fine, W, rtol, m, True, previous, P, error)
+            decision, err = level_decision(coarse, fine, W, rtol, m, previous, P, error)
             if decision == SETTLED:  # P and error written; the estimate includes the sensitivity to W and P's rounding
                 error[0] = max(error[0], sensitivity, rounding_floor(P, W))
             if decision != NOT_SETTLED:  # settled, or stalled at rounding
@@ -208,7 +200,7 @@ _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.
 
 
 @njit(_PASS, cache=True, error_model="numpy")
-def pole_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+def poles(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
               peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
               error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
     """(2.8) for one unit velocity on a cone with the physical flux, its peaked kernels' poles subtracted
@@ -224,7 +216,7 @@ def pole_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
     U : ndarray, shape (1, 3)
         Unit contact velocity u in the local frame, u_n < 0.
     table : ndarray, shape (5, n (2^levels − 1))
-        The cone's nodes of every level (:func:`mbimpact.averaging.cone_kernels.rule_table`).
+        The cone's nodes of every level (:func:`mbimpact.averaging.compiled.cone.rule_table`).
     levels : int
         The number of levels in the table.
     peaked : float
@@ -240,17 +232,17 @@ def pole_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
         Output: the last level's impulse P = (1+e) N / D.
     error : ndarray, shape (1,)
         Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at the
-        minima (:func:`~mbimpact.averaging.graded_kernels.minima_sensitivity`) and that of P
-        (:func:`~mbimpact.averaging.cone_kernels.rounding_floor`).
+        minima (:func:`~mbimpact.averaging.compiled.graded_cone.minima_sensitivity`) and that of P
+        (:func:`~mbimpact.averaging.compiled.primitives.rounding_floor`).
 
     Returns
     -------
     status : int
-        :data:`SETTLED` (``P`` and ``error`` are written); :data:`NOT_PEAKED` where the kernels have no
-        peak narrower than ``peaked`` (or one too narrow to treat); :data:`UNRESOLVED` where a zero of q
-        was not found; :data:`STALLED` where the answer's sensitivity to an ulp of W exceeds rtol, or
-        rounding stops the levels short of it, :data:`CAPPED` at the last level of the table;
-        :data:`DEGENERATE_FACET`, :data:`NOT_FACING`.
+        ``SETTLED`` (``P`` and ``error`` are written); ``NOT_PEAKED`` where the kernels have no peak
+        narrower than ``peaked`` (or one too narrow to treat); ``UNRESOLVED`` where a zero of q was not
+        found; ``STALLED`` where the answer's sensitivity to an ulp of W exceeds rtol, or rounding stops
+        the levels short of it, ``CAPPED`` at the last level of the table; ``DEGENERATE_FACET``,
+        ``NOT_FACING`` (:mod:`~mbimpact.averaging.compiled.primitives`).
     nodes : int
         The node count of the last level computed.
     """
@@ -258,12 +250,12 @@ def pole_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`pole_pass` callable in this process (numba's import excluded): its machine
+    """Wall time to make :func:`poles` callable in this process (numba's import excluded): its machine
     code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
-    from .cone_kernels import rule_table
+    from .cone import rule_table
 
     start = time.perf_counter()
     P, err = np.empty((1, 3)), np.empty(1)
     W = np.diag([1.0, 1e-6, 1e-6])
-    pole_pass(0.4, W, np.array([[0.3, 0.1, -0.9]]), rule_table(4, 2), 2, 0.15, 0.5, 1e-12, 1e-14, P, err)
+    poles(0.4, W, np.array([[0.3, 0.1, -0.9]]), rule_table(4, 2), 2, 0.15, 0.5, 1e-12, 1e-14, P, err)
     return time.perf_counter() - start

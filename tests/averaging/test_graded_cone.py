@@ -1,4 +1,4 @@
-"""One velocity on a Cone with a nearly singular W: the compiled graded rule against the graded rule in numpy."""
+"""One velocity on a Cone with a nearly singular W: the graded rule's compiled backend against its numpy form."""
 
 import math
 import warnings
@@ -9,10 +9,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import mbimpact as mbi
-from mbimpact.averaging import AUTO_ORDER, GradedPass
+from mbimpact.averaging import AUTO_ORDER, Graded, backends
+from mbimpact.averaging.compiled.codes import CAPPED, NOT_PEAKED, SETTLED
 
-from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, check_against_graded, mechanism, seeds,
-                           unit_velocities, upright_ur5_delassus, upright_ur5_velocity)
+from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, check_against_graded, compiled_graded, mechanism,
+                           seeds, unit_velocities, upright_ur5_delassus, upright_ur5_velocity)
 
 
 @given(seeds, st.floats(0.05, 1.5), st.sampled_from(["configuration", "physical"]), st.floats(3.0, 7.0),
@@ -20,8 +21,8 @@ from tests.helpers import (UPRIGHT_UR5, anisotropic_delassus, check_against_grad
 def test_every_level_equals_the_graded_rule(seed, alpha, flux, log_cond, ur5):
     """The same minima, pieces, levels (n, 2n, … nodes a piece) and stopping rule: the same result to rounding
     at the same node count, on W with cond 1e3 … 1e7 (random, or the UR5's near-singular posture turned
-    about the normal), across both regimes of incidence. It is worthwhile exactly where Graded is, declines
-    exactly where Graded declines, and otherwise only where Graded warns or rounding decides: on such W the
+    about the normal), across both regimes of incidence. It declines exactly where the numpy rule has no
+    graded rule, and otherwise differs only where that warns or rounding decides: on such W the
     difference of two levels is itself rounding amplified by |W| |P| / |W P| (up to ~1e-8 for the UR5), so
     whether it falls below rtol = 1e-12 at this level or the next is rounding's decision, numpy's or the kernel's."""
     rng = np.random.default_rng(seed)
@@ -29,83 +30,75 @@ def test_every_level_equals_the_graded_rule(seed, alpha, flux, log_cond, ur5):
     cond = np.linalg.cond(W)
     law = mbi.RoughLaw(mbi.Cone(alpha), 0.5, flux=flux)
     for u in unit_velocities(rng, 7):
-        check_against_graded(GradedPass(), law, W, u, cond)
+        check_against_graded(compiled_graded, law, W, u, cond)
 
 
 def test_a_near_singular_arm_takes_the_compiled_graded_rule():
     """The UR5 upright with the elbow straight (W's eigenvalues 1e7 apart): the graded rule in one compiled
     call, at the numpy graded rule's node count and impulse ("auto" takes the poles out first, and grades the
-    rule where that does not settle: test_pole_pass)."""
+    rule where that does not settle: test_poles)."""
     mech = mechanism("ur5")
     v = upright_ur5_velocity()
-    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, method="graded")
     contact = mbi.PointContact("tool0")
+    A, J = mech.mass_matrix(UPRIGHT_UR5), mech.point_jacobian(UPRIGHT_UR5, "tool0")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.NoSeparationWarning)  # further micro-impacts follow: not the point here
-        res = mbi.impact(mech, UPRIGHT_UR5, v, contact, law.replace(method="graded-pass"))
-        ref = mbi.impact(mech, UPRIGHT_UR5, v, contact, law.replace(method="graded"))
-    assert res.method == "graded-pass" and ref.method == "graded" and res.nodes == ref.nodes
-    np.testing.assert_allclose(res.P, ref.P, rtol=1e-12)
-    assert AUTO_ORDER.index("graded-pass") + 1 == AUTO_ORDER.index("graded")
-    # several velocities or a fixed node count: the numpy rule's (worthwhile says so, and it declines)
+        res = mbi.impact(mech, UPRIGHT_UR5, v, contact, law)
+        ref = law.apply_batch(A, J, np.vstack([v, v]), [0, 0, 1])  # two rows: the numpy rule
+    assert res.method == "graded[compiled]" and ref.method == "graded" and res.nodes == ref.nodes
+    np.testing.assert_allclose(res.P, ref.P[0], rtol=1e-12)
+    assert AUTO_ORDER.index("poles") + 1 == AUTO_ORDER.index("graded")
+    # several velocities or a fixed node count: the numpy rule's
     W, u = upright_ur5_delassus(), np.array([[0.3, 0.1, -1.0]]) / math.sqrt(1.1)
-    assert GradedPass().worthwhile(law.spec, W, u)
+    assert Graded().worthwhile(law.spec, W, u) and backends.one_velocity(law.spec, W, u)
     for spec, U in ((law.spec, np.vstack([u, u])), (law.replace(nodes=32).spec, u)):
-        assert not GradedPass().worthwhile(spec, W, U) and GradedPass().average(spec, W, U) is None
-    assert law.contact_impulses(W, np.vstack([u, u])).method == "graded"
+        assert not backends.one_velocity(spec, W, U)
+        assert Graded().average(spec, W, U).method == "graded"
 
 
-def test_it_declines_where_the_graded_rule_would_warn_and_naming_it_then_fails():
+def test_what_it_does_not_settle_goes_to_the_numpy_rule_which_warns():
     """max_nodes below what the case needs (32 and 64 nodes a piece agree; max_nodes = 32 leaves the pair 16,
-    32, which differ by ~1e-5): the compiled rule declines (CAPPED), "auto" runs the numpy graded rule, which
-    reports the error reached; naming "graded-pass" is a ParameterError with the reason. On a W without a
-    narrow peak it declines too."""
+    32, which differ by ~1e-5): the compiled rule is CAPPED, the numpy graded rule runs and reports the error
+    reached. On a W without a narrow peak the rule declines, and naming it is a ParameterError."""
     W = upright_ur5_delassus()
     u = np.array([[math.sin(0.5), 0.0, -math.cos(0.5)]])
     law = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux="configuration")
-    settled = GradedPass().average(law.spec, W, u)
-    assert settled is not None and settled.nodes == 64
+    status, settled = backends.graded(law.spec, W, u, Graded.peaked)
+    assert status == SETTLED and settled.nodes == 64
     capped = law.replace(max_nodes=32)
-    assert GradedPass().average(capped.spec, W, u) is None
+    assert backends.graded(capped.spec, W, u, Graded.peaked) == (CAPPED, None)
     with pytest.warns(mbi.AccuracyWarning, match="32 nodes"):
         assert capped.contact_impulses(W, u).method == "graded"
-    with pytest.raises(mbi.ParameterError, match="stops short of rtol"):
-        capped.replace(method="graded-pass").contact_impulses(W, u)
+    assert backends.graded(law.spec, np.eye(3) / 3, u, Graded.peaked) == (NOT_PEAKED, None)
     with pytest.raises(mbi.ParameterError, match="no narrow peak"):
-        law.replace(method="graded-pass").contact_impulses(np.eye(3), u)
+        law.replace(method="graded").contact_impulses(np.eye(3) / 3, u)
 
 
 def test_compile_kernels_covers_the_graded_kernels():
     out = mbi.compile_kernels()
-    assert "mbimpact.averaging.graded_kernels" in out
-    assert all(t >= 0.0 for t in out["mbimpact.averaging.graded_kernels"])
+    assert "mbimpact.averaging.compiled.graded_cone" in out
+    assert all(t >= 0.0 for t in out["mbimpact.averaging.compiled.graded_cone"])
 
 
-def test_auto_screens_a_single_velocity_once(monkeypatch):
-    """"auto" reuses the compiled twin's screen for "graded" on one velocity (the same decision, tested
-    above): the cone's twin screens in compiled code, the tilt density's with Graded's own screen, once
-    an impact; a batch is still screened by "graded" itself. (The tilt density's law has the
-    configuration flux: with the physical one, Gaussian slopes go to "laplace", which needs no screen.)"""
-    from mbimpact.averaging import Graded
+def test_the_closed_form_screens_rule_out_only_what_the_compiled_peak_test_rules_out():
+    """For one velocity on a cone, "auto" asks the closed-form screens of W (refinement.screened) before the
+    graded and pole rules' compiled peak test: wherever the screens rule a W out, that test finds no peak
+    narrower than Graded.peaked, on W from isotropic to cond 1e8."""
+    from mbimpact.averaging.compiled import GRADED_CONE
+    from mbimpact.averaging.refinement import screened
 
-    calls = []
-    screen = Graded.worthwhile
-
-    def counted(self, spec, W, U):
-        calls.append(len(U))
-        return screen(self, spec, W, U)
-
-    monkeypatch.setattr(Graded, "worthwhile", counted)
-    foot = np.array([[0.643, 6.4e-5, 3.3e-5], [6.4e-5, 0.328, 0.0493], [3.3e-5, 0.0493, 0.029]])  # no narrow peak
-    u = np.array([[0.28734789, 0.0, -0.95782629]])
-    for law in (mbi.RoughLaw(mbi.Cone(0.3), 0.5), mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, flux="configuration")):
-        for W in (foot, upright_ur5_delassus()):
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", mbi.AccuracyWarning)
-                law.contact_impulses(W, u)
-    assert calls == [1, 1]  # the two impacts on the tilt density, once each; none for the cone
-    mbi.RoughLaw(mbi.Cone(0.3), 0.5).contact_impulses(foot, np.vstack([u, u]))
-    assert calls == [1, 1, 2]
+    ring_peaks = GRADED_CONE.get().ring_peaks
+    rng = np.random.default_rng(21)
+    ruled_out = 0
+    for _ in range(400):
+        W = anisotropic_delassus(rng, rng.uniform(0.0, 8.0), bool(rng.integers(2)))
+        W = W / np.trace(W)
+        if not screened(W, Graded.peaked):
+            ruled_out += 1
+            for alpha in np.linspace(0.02, 1.55, 12):
+                assert ring_peaks(alpha, W, Graded.peaked) == 0
+    assert ruled_out > 25
 
 
 # Cones on nearly singular W where the graded rule's levels agree while all are off (q rounds alike at every
@@ -149,13 +142,12 @@ def _exact_error(P, W, ref):
 
 @pytest.mark.parametrize("case", range(len(ROUNDING_CASES)))
 def test_its_error_estimate_holds_what_rounding_does_to_agreeing_levels(case):
-    """Where successive levels agree to rtol while all of them are off (graded-pass erred by 3.8e-12 …
-    1.5e-11 here with a level difference of 2.4e-13 … 6.8e-13), the estimate of graded-pass and graded
-    holds the two rounding bounds that explain it: that of q at its minima (minima_sensitivity) and that of
+    """Where successive levels agree to rtol while all of them are off (the compiled rule erred by 3.8e-12 …
+    1.5e-11 here with a level difference of 2.4e-13 … 6.8e-13), the estimate of the graded rule, compiled
+    and in numpy, holds the two rounding bounds that explain it: that of q at its minima (minima_sensitivity) and that of
     P where W nearly annihilates it (rounding_floor). It bounds the error against a 36-digit reference, and
     exceeds rtol there: the estimate says so, without a warning, as it does where two levels agree to the
     rounding floor 100 ε √K."""
-    from mbimpact.averaging import Graded
     from mbimpact.averaging.refinement import rounding_floor
     from mbimpact.quadrature.graded import minima_sensitivity, ring_minima
 
@@ -165,12 +157,13 @@ def test_its_error_estimate_holds_what_rounding_does_to_agreeing_levels(case):
     bound = max(minima_sensitivity(alpha, W, ring_minima(alpha, W)[0], 0.5), 0.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mbi.AccuracyWarning)  # where rounding stalls numpy's levels, it says so
-        results = [GradedPass().average(law.spec, W, U), Graded().average(law.spec, W, U)]
+        results = [compiled_graded(law.spec, W, U), Graded().reference(law.spec, W, U)]
     assert results[1] is not None
     for out in results:
-        if out is None:  # graded-pass declines where the numpy rule stalls at rounding
+        if out is None:  # the compiled rule leaves to numpy what stalls at rounding
             continue
         floor = rounding_floor(out.P, W)[0]
-        assert out.error[0] >= max(bound, floor)
+        # the compiled rule computes both bounds in its own arithmetic: equal to rounding
+        assert out.error[0] >= max(bound, floor) * (1 - 1e-9)
         assert max(bound, floor) > law.rtol
         assert _exact_error(out.P[0], W, ref) <= out.error[0]

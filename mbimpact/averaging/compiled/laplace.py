@@ -20,7 +20,7 @@ slope s* where q is least as τ grows), in closed form with one erfc. Where the 
 decays slowly, as e^{−τ q_min} with q_min = q(s*); the peak's width never enters. The τ-integral is the
 trapezoid rule after the double-exponential map τ = c exp(x − e^{−x}): T is analytic in a strip about
 the real x-axis, so the rule converges geometrically and halving the step squares the error. Levels
-halve the step from 1/2 until two agree to rtol (:func:`mbimpact.averaging.cone_kernels.level_decision`);
+halve the step from 1/2 until two agree to rtol (:func:`mbimpact.averaging.compiled.primitives.level_decision`);
 a velocity needs 60–300 nodes, growing as log(1/q_min) however narrow the peak.
 
 The closed form of T. With ξ = sᵀν, ν = −u_t (so that −s̃ᵀu = ξ − u_n, H = {ξ > u_n}) and s Gaussian
@@ -60,9 +60,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from .cone_kernels import CAPPED, DEGENERATE_FACET, NOT_SETTLED, SETTLED, STALLED, compensated_add, level_decision
+from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NOT_SETTLED, SETTLED, dot2, level_decision)
 
-__all__ = ["laplace_average", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "STALLED", "CAPPED", "FIRST_STEP",
+__all__ = ["laplace_average", "jit_seconds", "FIRST_STEP",
            "LEVELS"]
 
 #: The first level's step in x (the DE map's variable); each level halves it.
@@ -71,12 +71,9 @@ FIRST_STEP = 0.5
 #: Levels at most (steps 1/2 … 1/128): a velocity not settled by then is CAPPED.
 LEVELS = 7
 
-# machine epsilon (a constant of float64, safe to freeze into the compiled code)
-_EPS = float(np.finfo(float).eps)
-
 # the relative rounding of a node's terms (a few exp, an erfc, ~30 operations): against 40-digit sums of the
 # same rule, the float64 sums erred by up to 1.9 ε |W| Σ|terms| / |W P|
-_ROUNDING = 4 * _EPS
+_ROUNDING = 4 * EPS
 
 # the τ-integrand's tails are cut where a node adds less than this share of the sum of |terms| so far
 _TAIL = 1e-18
@@ -87,37 +84,8 @@ _DECAY = 40.0
 # Φ(t) rounds to 1 and t φ(t) to below ε for t beyond this
 _WHOLE = 9.0
 
-# Veltkamp's splitting constant 2^27 + 1: a double's product with it splits it into two 26-bit halves
-_SPLIT = 134217729.0
-
 _SQRT_HALF = math.sqrt(0.5)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def _two_product(x: float, y: float) -> tuple[float, float]:  # pragma: no cover — compiled
-    """x y = p + e exactly (Dekker's product, with Veltkamp's split: no fused multiply-add needed)."""
-    p = x * y
-    t = _SPLIT * x
-    xh = t - (t - x)
-    xl = x - xh
-    t = _SPLIT * y
-    yh = t - (t - y)
-    yl = y - yh
-    return p, ((xh * yh - p) + xh * yl + xl * yh) + xl * yl
-
-
-@njit(cache=True, error_model="numpy")
-def _accurate(terms: tuple[tuple[float, float, float], ...]) -> float:  # pragma: no cover — compiled
-    """Σ x y z over the triples, as if summed in twice the working precision and rounded once (Ogita, Rump
-    and Oishi's Dot2: each x y exact, its product with z exact to ε², the sum compensated)."""
-    total, compensation = 0.0, 0.0
-    for x, y, z in terms:
-        h, low = _two_product(x, y)
-        p, e = _two_product(h, z)
-        total, compensation = compensated_add(total, compensation, p)
-        compensation += e + low * z
-    return total + compensation
 
 
 @njit(cache=True, error_model="numpy")
@@ -216,12 +184,12 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     # what cancels where W_t is nearly singular, accurately: det W_t, adj W_t w and wᵀ adj W_t w (the
     # exact answer hardly depends on an ulp of W's entries, but these three, rounded apart, would each
     # move it by their own error, ~1e-12 at cond W_t ~ 1e4)
-    det_t = _accurate(((Wxx, Wyy, 1.0), (Wxy, Wxy, -1.0)))
+    det_t = dot2(((Wxx, Wyy, 1.0), (Wxy, Wxy, -1.0)))
     if not (Wxx > 0.0 and det_t > 0.0):
         return DEGENERATE_FACET, 0
-    ax = _accurate(((Wyy, wx, 1.0), (Wxy, wy, -1.0)))
-    ay = _accurate(((Wxx, wy, 1.0), (Wxy, wx, -1.0)))
-    waw = _accurate(((wx, wx, Wyy), (wx, wy, -2.0 * Wxy), (wy, wy, Wxx)))
+    ax = dot2(((Wyy, wx, 1.0), (Wxy, wy, -1.0)))
+    ay = dot2(((Wxx, wy, 1.0), (Wxy, wx, -1.0)))
+    waw = dot2(((wx, wx, Wyy), (wx, wy, -2.0 * Wxy), (wy, wy, Wxx)))
     # s*: the least q(s) = sᵀW_t s + 2 sᵀw + W_zz (W_t s* = −w); q_min = q(s*) = W_zz − wᵀW_t⁻¹w
     sx, sy = -ax / det_t, -ay / det_t
     sws = waw / det_t  # s*ᵀ W_t s* = wᵀ W_t⁻¹ w
@@ -229,7 +197,7 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     if not q_min > degenerate * trace * (1.0 + sx * sx + sy * sy):
         return DEGENERATE_FACET, 0
     # how far the rounding of W's entries can move q_min (as it moves q(s*))
-    dq = _EPS * (abs(Wxx) * sx * sx + 2.0 * abs(Wxy * sx * sy) + abs(Wyy) * sy * sy
+    dq = EPS * (abs(Wxx) * sx * sx + 2.0 * abs(Wxy * sx * sy) + abs(Wyy) * sy * sy
                  + 2.0 * abs(wx * sx) + 2.0 * abs(wy * sy) + abs(Wzz))
     c = 1.0 / (trace * (1.0 + sigma * sigma))  # τ beyond which the bulk of g feels e^{−τq}
     nodes = 0
@@ -237,10 +205,10 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
     coarse, fine, sums = np.empty(3), np.empty(3), np.empty(10)
     for b in range(U.shape[0]):
         nx, ny, un = -U[b, 0], -U[b, 1], U[b, 2]
-        row = (nx, ny, un, nx * nx + ny * ny, _accurate(((Wyy, nx, 1.0), (Wxy, ny, -1.0))),
-               _accurate(((Wxx, ny, 1.0), (Wxy, nx, -1.0))),
-               _accurate(((nx, nx, Wyy), (nx, ny, -2.0 * Wxy), (ny, ny, Wxx))), nx * wx + ny * wy,
-               _accurate(((nx, wx, Wyy), (nx, wy, -Wxy), (ny, wx, -Wxy), (ny, wy, Wxx))))
+        row = (nx, ny, un, nx * nx + ny * ny, dot2(((Wyy, nx, 1.0), (Wxy, ny, -1.0))),
+               dot2(((Wxx, ny, 1.0), (Wxy, nx, -1.0))),
+               dot2(((nx, nx, Wyy), (nx, ny, -2.0 * Wxy), (ny, ny, Wxx))), nx * wx + ny * wy,
+               dot2(((nx, wx, Wyy), (nx, wy, -Wxy), (ny, wx, -Wxy), (ny, wy, Wxx))))
         # D: the same Gaussian integral at τ = 0 (precision a, centred at 0)
         D = _half_plane(-un, (nx * nx + ny * ny) / a)[1] / a
         # level 0: walk out from x = 0 until the tails are negligible; later levels fill in [lo, hi]
@@ -274,7 +242,7 @@ def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float
             count = 2 * count - 1
             for i in range(3):
                 fine[i] = factor * h * sums[i]
-            status, diff = level_decision(coarse, fine, W, rtol, float(count), True, previous, P[b:b + 1],
+            status, diff = level_decision(coarse, fine, W, rtol, float(count), previous, P[b:b + 1],
                                           error[b:b + 1])
             if status != NOT_SETTLED:
                 break

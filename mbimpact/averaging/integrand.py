@@ -12,7 +12,7 @@ and its Newton impact has the contact impulse −(1+e) (mᵀu / mᵀWm) m, so th
 
 Written with the kernel powers (γ, δ) = (1, 0) (physical) or (3/2, 1/2)
 (configuration): N = Σ p (mᵀu)² m / (mᵀWm)^γ and D = Σ p (−mᵀu) / (mᵀWm)^δ — the
-form the closed-form averages (ring expansion, tilt tables, cone pairs) integrate.
+form the closed-form averages (ring expansion, tilt tables) integrate.
 
 Other facet laws (:mod:`mbimpact.facets`: Coulomb, compliant, Hunt–Crossley facets) keep
 the weights and replace the Newton impulse by the facet law's own, P_i = facet.impulse(m_i, W, u):

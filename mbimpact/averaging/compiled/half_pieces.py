@@ -1,6 +1,6 @@
 """The node sums of the compiled graded rules, one half-piece at a time: shared by a cone's
-(:mod:`~mbimpact.averaging.graded_kernels`) and a tilt density's
-(:mod:`~mbimpact.averaging.graded_slope_kernels`).
+(:mod:`~mbimpact.averaging.compiled.graded_cone`) and a tilt density's
+(:mod:`~mbimpact.averaging.compiled.graded_slopes`).
 
 The graded rule of :func:`mbimpact.quadrature.graded.graded_azimuth_rule` cuts the facing interval
 of a ring at the minima of q = mᵀWm, halves every piece and maps each half onto its graded end a by
@@ -8,10 +8,10 @@ of a ring at the minima of q = mᵀWm, halves every piece and maps each half ont
 :func:`half_piece_nodes` (cos θ, sin θ and the weight, θ the azimuth in the caller's frame: W's own for
 a cone, the facing interval's centre for a ring of a tilt density) and summed by :func:`half_piece_sums` (the integrands of (2.8) with the flux weights of (2.7)). Both
 loops run in SIMD lanes: polynomials in place of libm
-(:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`,
-:func:`~mbimpact.averaging.slope_pass_kernels.exp_neg`), no calls, no early exits, and the sums
+(:func:`~mbimpact.averaging.compiled.primitives.cos_sin`,
+:func:`~mbimpact.averaging.compiled.primitives.exp_neg`), no calls, no early exits, and the sums
 reassociated; the callers add the half-pieces' sums with compensation
-(:func:`~mbimpact.averaging.cone_kernels.compensated_add`). The result is the per-node loop's to a
+(:func:`~mbimpact.averaging.compiled.primitives.compensated_add`). The result is the per-node loop's to a
 few ulps of each half-piece's sum, at a fraction of its cost.
 """
 
@@ -23,11 +23,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from .slope_pass_kernels import cos_sin, exp_neg
+from .primitives import cos_sin, exp_neg
 
 __all__ = ["half_piece_nodes", "half_piece_sums", "NODE_PLUS_ONE", "WEIGHT"]
 
-#: Rows of :func:`mbimpact.averaging.graded_kernels.rule_table`: x + 1 and w of the Gauss–Legendre
+#: Rows of :func:`mbimpact.averaging.compiled.graded_cone.rule_table`: x + 1 and w of the Gauss–Legendre
 #: nodes of each level in turn.
 NODE_PLUS_ONE, WEIGHT = 0, 1
 
@@ -53,7 +53,7 @@ def half_piece_nodes(start: int, m: int, table: NDArray[np.float64], offset: flo
     Parameters
     ----------
     table : ndarray, shape (2, K)
-        :func:`mbimpact.averaging.graded_kernels.rule_table`.
+        :func:`mbimpact.averaging.compiled.graded_cone.rule_table`.
     cs, sn, pw : ndarray, shape (≥ m,)
         Output: cos θ, sin θ and the weights.
     """

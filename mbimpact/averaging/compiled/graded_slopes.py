@@ -1,5 +1,5 @@
-"""The compiled core of :class:`~mbimpact.averaging.GradedSlopePass`: an isotropic tilt density's
-graded rule for one velocity (spatial, d = 3), every level in one call.
+"""An isotropic tilt density's graded rule of (2.8) for one velocity (spatial, d = 3), every level in one
+call: the compiled backend of :class:`~mbimpact.averaging.Graded` on tilt densities.
 
 A nearly singular Delassus matrix W makes q = mᵀWm small near a few directions, and the kernels of
 (2.8) with the flux weights of (2.7) peak there with widths ε ≪ 1. :class:`~mbimpact.averaging.Graded`
@@ -12,15 +12,15 @@ and on every ring of tilt α its azimuths graded towards that ring's own minima 
 facets. Here it runs on floats, level after level (n, 2n, 4n, … nodes a piece): :func:`tilt_nodes`
 forms the graded tilt nodes of every level (graded_tilt_rule's arithmetic; the caller weighs them with
 the measure's density p(α) dα in one numpy call, so any tilt density works), and
-:func:`graded_slope_pass`, ring after ring, finds the minima of q (256-point grid, Newton on q' = 0,
+:func:`graded_slopes`, ring after ring, finds the minima of q (256-point grid, Newton on q' = 0,
 widths capped by the quartic one), cuts the facing interval at them, halves every piece and maps each
 half by φ = a ± ε sinh t, Gauss–Legendre in t; sums the facet weights (2.7) and Newton impulses (2.8)
-(node loops in SIMD lanes, :mod:`~mbimpact.averaging.graded_sums`; half-pieces added with compensation);
+(node loops in SIMD lanes, :mod:`~mbimpact.averaging.compiled.half_pieces`; half-pieces added with compensation);
 and stops by the adaptive rule's error estimate and stopping rule. Its result is the numpy rule's to
 rounding.
 
 Imported on first use only (numba costs ~0.3 s to import:
-:data:`mbimpact.averaging.graded_slope_pass.KERNELS`).
+:data:`mbimpact.averaging.compiled.GRADED_SLOPES`).
 """
 
 from __future__ import annotations
@@ -32,18 +32,12 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from .cone_kernels import NOT_SETTLED, compensated_add, level_decision
-from .graded_kernels import rule_table
-from .graded_sums import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
+from .graded_cone import rule_table
+from .half_pieces import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
+from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NEED_TABLE, NOT_FACING, NOT_SETTLED, compensated_add,
+                         level_decision)
 
-__all__ = ["rule_table", "tilt_nodes", "graded_slope_pass", "jit_seconds", "SETTLED", "DEGENERATE_FACET", "NOT_FACING",
-           "STALLED", "CAPPED", "NEED_TABLE"]
-
-# status codes of :func:`graded_slope_pass`: settled to rtol, or why not (STALLED and CAPPED are the adaptive
-# rule's AccuracyWarning cases; NEED_TABLE: the tilt nodes given end before the level that comes next)
-SETTLED, DEGENERATE_FACET, NOT_FACING, STALLED, CAPPED, NEED_TABLE = 0, 1, 2, 4, 5, 6
-
-_EPS = float(np.finfo(float).eps)
+__all__ = ["rule_table", "tilt_nodes", "graded_slopes", "jit_seconds"]
 
 # ring_minima_many's Newton tolerance (_NEWTON_ROUNDING ε of the rounding of q') and iteration cap
 _NEWTON_ROUNDING = 16.0
@@ -84,7 +78,7 @@ def tilt_nodes(lo: float, hi: float, split: float, at: NDArray[np.float64], et: 
     at, et : ndarray, shape (3,)
         :func:`~mbimpact.quadrature.graded.peak_tilts`' tilts and widths, NaN for none.
     table : ndarray, shape (2, n (2^levels − 1)), levels ≥ count
-        :func:`~mbimpact.averaging.graded_kernels.rule_table`.
+        :func:`~mbimpact.averaging.compiled.graded_cone.rule_table`.
     tilt, dtilt : ndarray, shape (≥ 10 n (2^count − 1),)
         Output: the nodes and their dα, level after level.
     start : ndarray of int, shape (count + 1,)
@@ -145,7 +139,7 @@ def _minima(q0: float, a1: float, b1: float, a2: float, b2: float, grid: NDArray
     rounding only)."""
     for i in range(_GRID_N):  # no calls, no branches: SIMD lanes
         grid[i] = q0 + a1 * _GRID[0, i] + b1 * _GRID[1, i] + a2 * _GRID[2, i] + b2 * _GRID[3, i]
-    noise = _NEWTON_ROUNDING * _EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))
+    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))
     k = 0
     for i in range(_GRID_N):
         q = grid[i]
@@ -265,7 +259,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], tilt: NDArray[np.floa
 
 
 @njit(_PASS, cache=True, error_model="numpy")
-def graded_slope_pass(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDArray[np.float64],
+def graded_slopes(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDArray[np.float64],
                       pd: NDArray[np.float64], tilt_start: NDArray[np.int64], table: NDArray[np.float64], n: int,
                       levels: int, configuration: bool, e: float, rtol: float, degenerate: float,
                       P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
@@ -284,7 +278,7 @@ def graded_slope_pass(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDAr
     tilt_start : ndarray of int, shape (given + 1,)
         Level k's tilts are ``tilt[tilt_start[k]:tilt_start[k + 1]]``.
     table : ndarray, shape (2, n (2^levels − 1))
-        The Gauss–Legendre nodes of every level (:func:`~mbimpact.averaging.graded_kernels.rule_table`).
+        The Gauss–Legendre nodes of every level (:func:`~mbimpact.averaging.compiled.graded_cone.rule_table`).
     n : int
         Nodes a half-piece of the first level.
     levels : int
@@ -305,9 +299,9 @@ def graded_slope_pass(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDAr
     Returns
     -------
     status : int
-        :data:`SETTLED` (``P``, ``error`` written), :data:`STALLED` / :data:`CAPPED` (the adaptive rule
-        would warn), :data:`DEGENERATE_FACET`, :data:`NOT_FACING`, or :data:`NEED_TABLE` (the tilts given
-        end before the next level).
+        ``SETTLED`` (``P``, ``error`` written), ``STALLED`` / ``CAPPED`` (the numpy rule would warn),
+        ``DEGENERATE_FACET``, ``NOT_FACING``, or ``NEED_TABLE`` (the tilts given end before the next
+        level): :mod:`~mbimpact.averaging.compiled.primitives`.
     nodes : int
         Nodes a piece of the last level computed.
     """
@@ -328,7 +322,7 @@ def graded_slope_pass(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDAr
         if status:
             return status, m
         start += m
-        decision, err = level_decision(coarse, fine, W, rtol, facets, True, previous, P, error)
+        decision, err = level_decision(coarse, fine, W, rtol, facets, previous, P, error)
         if decision != NOT_SETTLED:  # settled (P and error written), or stalled at rounding
             return decision, m
         previous = err
@@ -337,7 +331,7 @@ def graded_slope_pass(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDAr
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`graded_slope_pass` callable in this process (loaded from numba's on-disk
+    """Wall time to make :func:`graded_slopes` callable in this process (loaded from numba's on-disk
     cache, or compiled); later calls return near 0."""
     start = time.perf_counter()
     tilt, dtilt, begin = np.empty(60), np.empty(60), np.empty(3, np.int64)
@@ -345,6 +339,6 @@ def jit_seconds() -> float:
                tilt, dtilt, begin)
     W = np.diag([1e-6, 1.0, 1.0])
     tilt = np.array([0.1, 0.2, 0.3, 0.1, 0.15, 0.2, 0.25, 0.3])
-    graded_slope_pass(W, np.array([[0.6, 0.0, -0.8]]), tilt, np.full(8, 0.1), np.array([0, 3, 8]), rule_table(2, 2),
+    graded_slopes(W, np.array([[0.6, 0.0, -0.8]]), tilt, np.full(8, 0.1), np.array([0, 3, 8]), rule_table(2, 2),
                       2, 2, True, 0.5, 1e-12, 1e-14, np.empty((1, 3)), np.empty(1))
     return time.perf_counter() - start

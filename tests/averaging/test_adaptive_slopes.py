@@ -1,10 +1,9 @@
-"""One velocity on an isotropic tilt density: the compiled adaptive rule against the numpy one.
+"""One velocity on an isotropic tilt density: the adaptive rule's compiled backend against its numpy form.
 
-:class:`~mbimpact.averaging.SlopePass` runs the adaptive rule of the measure's own product rule
-(the same tilt segments, azimuth nodes and doubling) in one compiled call: it must reproduce
-:class:`~mbimpact.averaging.Adaptive` to rounding (amplified, as every impulse of (2.8) is, by
-|W| |P| / |W P|), decide alike when to stop, and decline exactly where the adaptive rule would
-warn or raise. Closed forms where (2.8) has one: a point mass (W ∝ I) at normal incidence, and
+The backend runs the adaptive rule of the measure's own product rule (the same tilt segments, azimuth
+nodes and doubling) in one compiled call: it must reproduce :meth:`mbimpact.averaging.Adaptive.reference`
+to rounding (amplified, as every impulse of (2.8) is, by |W| |P| / |W P|), decide alike when to stop, and
+leave to the numpy rule exactly what that would warn of or raise. Closed forms where (2.8) has one: a point mass (W ∝ I) at normal incidence, and
 the rotational symmetry of a tangentially isotropic W.
 """
 
@@ -25,8 +24,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import mbimpact as mbi
-from mbimpact.averaging import Adaptive, SlopePass
-from mbimpact.averaging.slope_pass import FIRST_LEVELS, KERNELS
+from mbimpact.averaging import Adaptive, backends
+from mbimpact.averaging.backends import FIRST_LEVELS
+from mbimpact.averaging.compiled import SLOPES as KERNELS
 from mbimpact.errors import AccuracyWarning, NoFacingFacetError, ParameterError
 from mbimpact.roughness.slopes import GaussianTiltDensity
 
@@ -57,22 +57,27 @@ def adaptive(law: mbi.RoughLaw, W: np.ndarray, u: np.ndarray) -> tuple[mbi.Conta
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            out = Adaptive().average(law.spec, W, u[None])
+            out = Adaptive().reference(law.spec, W, u[None])
         except NoFacingFacetError:
             return None, True
     return out, any(issubclass(w.category, AccuracyWarning) for w in caught)
 
 
+def compiled(spec, W: np.ndarray, U: np.ndarray) -> mbi.ContactImpulses | None:
+    """The adaptive rule's compiled backend: its impulses where it settles, else None."""
+    return backends.adaptive(spec, W, U)[1]
+
+
 def check_against_adaptive(law: mbi.RoughLaw, W: np.ndarray, u: np.ndarray) -> mbi.ContactImpulses | None:
-    """The compiled pass equals the adaptive rule: the same impulse to rounding, the same error
-    estimate and node count; or it declines, exactly where the adaptive rule stops short."""
-    fast = SlopePass().average(law.spec, W, u[None])
+    """The compiled rule equals the numpy rule: the same impulse to rounding, the same error estimate and
+    node count; or it does not settle, exactly where the numpy rule stops short."""
+    fast = compiled(law.spec, W, u[None])
     slow, short = adaptive(law, W, u)
     if fast is None:
         assert short, "declined a velocity the adaptive rule settles"
         return None
     assert not short, "settled a velocity on which the adaptive rule warns"
-    assert slow is not None and fast.method == "slope-pass" and fast.P.shape == (1, len(u))
+    assert slow is not None and fast.method == "adaptive[compiled]" and fast.P.shape == (1, len(u))
     floor = 100 * EPS * math.sqrt(law.roughness.rule_size(fast.nodes))
     assert fast.error[0] <= max(law.rtol, floor)
     # rounding, amplified by |W| |P| / |W P| (the adaptive rule's measure of it); seen up to ~8 ε that
@@ -171,20 +176,20 @@ def test_point_mass_at_normal_incidence(d, flux, sigma):
     (both fluxes: they coincide when W ∝ I), the moments of the tilt density."""
     w, e = 2.5, 0.7
     rough = mbi.GaussianSlopes(sigma, dim=d)
-    law = mbi.RoughLaw(rough, e, flux=flux, method="slope-pass")
+    law = mbi.RoughLaw(rough, e, flux=flux, method="adaptive")
     u = np.zeros(d)
     u[-1] = -1.0
     out = law.contact_impulses(w * np.eye(d), u[None])
     exact = np.zeros(d)
     exact[-1] = (1 + e) * rough.moment(lambda a: np.cos(a) ** 3) / (w * rough.moment(np.cos))
-    assert out.method == "slope-pass"
+    assert out.method == "adaptive[compiled]"
     np.testing.assert_allclose(out.P[0], exact, rtol=1e-11, atol=1e-14 * abs(exact[-1]))
 
 
 def test_rotating_the_velocity_rotates_the_impulse():
     """W = diag(a, a, b) is isotropic in the tangent plane: turning u about n⁰ turns P alike."""
     W = np.diag([0.7, 0.7, 1.9])
-    law = mbi.RoughLaw(mbi.GaussianSlopes(0.4), 0.5, method="slope-pass")
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.4), 0.5, method="adaptive")
     for beta in (0.2, 0.9, 1.4):  # below and above the tilts' incidence split
         u = np.array([math.sin(beta), 0.0, -math.cos(beta)])
         P = law.contact_impulses(W, u[None]).P[0]
@@ -196,25 +201,23 @@ def test_rotating_the_velocity_rotates_the_impulse():
 
 
 def test_auto_picks_it_for_one_velocity_only():
-    """``"auto"``: a single velocity on a tilt density goes to slope-pass; batches, a fixed node
-    count and a nearly singular W (graded first) do not; nor does a velocity it declines. (With the
+    """``"auto"``: a single velocity on a tilt density takes the compiled rule; batches, a fixed node
+    count and a nearly singular W (graded first) do not; nor does a velocity it does not settle. (With the
     configuration flux: with the physical one, spatial Gaussian slopes go to "laplace".)"""
     rng = np.random.default_rng(5)
     W = spd(rng, 3, 20.0)
     U = unit_velocities(rng, 2, 1.2)
     law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, flux="configuration")
-    assert law.contact_impulses(W, U[:1]).method == "slope-pass"
+    assert law.contact_impulses(W, U[:1]).method == "adaptive[compiled]"
     assert law.contact_impulses(W, U).method == "adaptive"
     assert law.replace(nodes=16).contact_impulses(W, U[:1]).method == "fixed"
-    assert law.contact_impulses(upright_ur5_delassus(), U[:1]).method == "graded-slope-pass"  # graded, compiled
+    assert law.contact_impulses(upright_ur5_delassus(), U[:1]).method == "graded[compiled]"
     planar = mbi.RoughLaw(mbi.GaussianSlopes(0.3, dim=2), 0.5)
-    assert planar.contact_impulses(W[:2, :2], np.array([[0.6, -0.8]])).method == "slope-pass"
-    # max_nodes too small for rtol: the compiled pass declines, the adaptive rule runs and warns
+    assert planar.contact_impulses(W[:2, :2], np.array([[0.6, -0.8]])).method == "adaptive[compiled]"
+    # max_nodes too small for rtol: the compiled rule stops short, the numpy rule runs and warns
     short = law.replace(max_nodes=16)
     with pytest.warns(AccuracyWarning):
         assert short.contact_impulses(W, U[:1]).method == "adaptive"
-    with pytest.raises(ParameterError, match="adaptive"):
-        short.replace(method="slope-pass").contact_impulses(W, U[:1])
 
 
 def test_other_facet_laws_are_not_its_business():
@@ -224,23 +227,23 @@ def test_other_facet_laws_are_not_its_business():
     W = spd(np.random.default_rng(2), 3, 5.0)
     assert law.contact_impulses(W, np.array([[0.3, 0.1, -0.95]]) / math.hypot(0.3, 0.1, 0.95)).method \
         == "adaptive[coulomb]"
-    with pytest.raises(ParameterError):
-        law.replace(method="slope-pass")
+    for name in ("laplace", "tilt-table"):  # the rules that integrate Newton facets in closed form
+        with pytest.raises(ParameterError, match="cannot average|Newton facets"):
+            law.replace(method=name)
 
 
-def test_the_single_impact_of_the_issue():
-    """Issue #17's impact: UR5, GaussianSlopes(0.3), e = 0.5, through mbi.impact: slope-pass (named; "auto"
-    takes "laplace"), and the adaptive rule's result to rounding."""
+def test_a_single_impact_of_an_arm():
+    """UR5, GaussianSlopes(0.3), e = 0.5, through mbi.impact with the adaptive rule named ("auto" takes
+    "laplace"): the compiled rule, and the numpy rule's result (a batch of two rows) to rounding."""
     mech = mbi.Mechanism.from_robot("ur5")
     q = mech.neutral() + 0.3
     J = mech.point_jacobian(q, "tool0")
     v = np.linalg.lstsq(J, [0.3, 0.1, -1.0], rcond=None)[0]
-    fast = mbi.impact(mech, q, v, mbi.PointContact("tool0"),
-                      mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, method="slope-pass"))
-    slow = mbi.impact(mech, q, v, mbi.PointContact("tool0"),
-                      mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, method="adaptive"))
-    assert fast.method == "slope-pass" and slow.method == "adaptive" and fast.nodes == slow.nodes
-    np.testing.assert_allclose(fast.v_plus, slow.v_plus, rtol=0, atol=1e-13 * np.linalg.norm(v))
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5, method="adaptive")
+    fast = mbi.impact(mech, q, v, mbi.PointContact("tool0"), law)
+    slow = law.apply_batch(mech.mass_matrix(q), J, np.vstack([v, v]), [0, 0, 1])
+    assert fast.method == "adaptive[compiled]" and slow.method == "adaptive" and fast.nodes == slow.nodes
+    np.testing.assert_allclose(fast.v_plus, slow.V_plus[0], rtol=0, atol=1e-13 * np.linalg.norm(v))
 
 
 def test_inputs_of_any_layout():
@@ -250,11 +253,11 @@ def test_inputs_of_any_layout():
     W = spd(rng, 3, 50.0)
     U = unit_velocities(rng, 3, 1.3)
     law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
-    ref = SlopePass().average(law.spec, W, U[1:2])
-    other = SlopePass().average(law.spec, np.asfortranarray(W), U[1:2, ::-1][:, ::-1])
+    ref = compiled(law.spec, W, U[1:2])
+    other = compiled(law.spec, np.asfortranarray(W), U[1:2, ::-1][:, ::-1])
     assert ref is not None and other is not None
-    np.testing.assert_array_equal(ref.P, other.P)
-    assert SlopePass().average(law.spec, W, U) is None  # several velocities: not its case
+    np.testing.assert_array_equal(ref.P, other.P)  # the same arithmetic on the same numbers, on one machine
+    assert not backends.one_velocity(law.spec, W, U)  # several velocities: not its case
 
 
 def test_interpreted_kernel_matches_compiled():
@@ -262,12 +265,12 @@ def test_interpreted_kernel_matches_compiled():
     arithmetic (the compiled sums reassociated: to rounding)."""
     script = textwrap.dedent("""
         import numpy as np, mbimpact as mbi
-        from mbimpact.averaging import SlopePass
+        from mbimpact.averaging import backends
         W = np.array([[0.9, 0.2, 0.1], [0.2, 0.5, -0.1], [0.1, -0.1, 1.3]])
         U = {3: np.array([[0.5, 0.3, -0.8]]) / np.linalg.norm([0.5, 0.3, -0.8]), 2: np.array([[-0.6, -0.8]])}
         for d, flux in ((3, "physical"), (3, "configuration"), (2, "physical")):
             law = mbi.RoughLaw(mbi.GaussianSlopes(0.4, dim=d), 0.5, flux=flux)
-            out = SlopePass().average(law.spec, W[:d, :d].copy(), U[d])
+            out = backends.adaptive(law.spec, W[:d, :d].copy(), U[d])[1]
             print(repr(out.P.tolist()), out.nodes)
     """)
     runs = []

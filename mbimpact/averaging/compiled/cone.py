@@ -1,14 +1,13 @@
-"""The compiled core of :class:`~mbimpact.averaging.ConePair` and :class:`~mbimpact.averaging.ConePass`:
-one velocity on a cone, in one call.
+"""The adaptive rule of (2.8) on a cone of facets for one velocity: the compiled backend of
+:class:`~mbimpact.averaging.Adaptive`.
 
 The two integrals of (2.8) with the flux weights of (2.7) over the facing arc of a cone of tilt α,
 at n, 2n, 4n, … azimuth nodes, their impulses P = (1+e) N / D and the relative difference of two
-successive levels by the velocity change W P they produce — the first pass of the adaptive rule
-(:func:`cone_pair`), or all of its levels (:func:`cone_pass`) — compiled by numba (``njit``, cached
-on disk). The level sums are compensated (:func:`compensated_add`), and the stopping test is
-:func:`level_decision`, which the other compiled rules share. It is imported on first use only:
-numba costs ~0.3 s to import, more than ``import mbimpact`` may take
-(:data:`mbimpact.averaging.cone_pair.KERNELS`).
+successive levels by the velocity change W P they produce, until two levels agree: the nodes, error
+estimate and stopping rule of :func:`mbimpact.averaging.refinement.refine`, compiled by numba
+(``njit``, cached on disk; :func:`cone_adaptive`). The level sums are compensated
+(:func:`~mbimpact.averaging.compiled.primitives.compensated_add`). Imported on first use only
+(numba costs ~0.3 s to import): :data:`mbimpact.averaging.compiled.CONE`.
 
 The nodes are those of :func:`mbimpact.quadrature.rules.azimuth_rule`, measured from the azimuth
 ψ of u_t (θ = φ − ψ): the periodic trapezoid rule θ = 2πj/n on the full ring when the whole cone
@@ -19,7 +18,7 @@ per n and level count (:func:`rule_table`). Per node, with m = (s cos φ, s sin 
     mᵀWm = q₀ + a₁ cos θ + b₁ sin θ + a₂ cos 2θ + b₂ sin 2θ   (the ring's harmonics, rotated by ψ),
 
 so a node costs its cos θ, sin θ and a few products. Both loops run in SIMD lanes: the arc's cos θ
-and sin θ are polynomials (:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`), and a level is
+and sin θ are polynomials (:func:`~mbimpact.averaging.compiled.primitives.cos_sin`), and a level is
 summed in blocks of 32 nodes, reassociated, the blocks added with compensation. Run with
 ``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
 """
@@ -34,19 +33,10 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from ..quadrature.rules import gauss_legendre
-from .slope_pass_kernels import cos_sin
+from ...quadrature.rules import gauss_legendre
+from .primitives import CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED, compensated_add, cos_sin, level_decision
 
-__all__ = ["rule_table", "cone_pair", "cone_pass", "adaptive_levels", "compensated_add", "level_decision",
-           "rounding_floor", "jit_seconds", "SETTLED",
-           "DEGENERATE_FACET", "NOT_FACING", "NOT_SETTLED", "STALLED", "CAPPED"]
-
-# status codes of :func:`cone_pair` and :func:`cone_pass`: the velocity is settled to rtol, or why not
-# (for cone_pass, STALLED and CAPPED are the adaptive rule's AccuracyWarning cases: rounding, max_nodes)
-SETTLED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED, STALLED, CAPPED = 0, 1, 2, 3, 4, 5
-
-# machine epsilon (a constant of float64, safe to freeze into the compiled code)
-_EPS = float(np.finfo(float).eps)
+__all__ = ["rule_table", "cone_adaptive", "adaptive_levels", "jit_seconds"]
 
 # fast-math flags of the node sums: reassociated into SIMD lanes, products fused (no finite-math
 # assumptions: a NaN must stay one)
@@ -61,14 +51,14 @@ _GL_NODE, _GL_WEIGHT, _RING_COS, _RING_SIN, _RING_WEIGHT = range(5)
 
 @functools.lru_cache(maxsize=32)
 def rule_table(n: int, levels: int = 2) -> NDArray[np.float64]:
-    """The nodes of the levels n, 2n, …, 2^(levels−1) n of :func:`cone_pass` (cached, read-only).
+    """The nodes of the levels n, 2n, …, 2^(levels−1) n of :func:`cone_adaptive` (cached, read-only).
 
     Parameters
     ----------
     n : int
         Node count of the first level.
     levels : int
-        Number of levels (2: the pair of :func:`cone_pair`).
+        Number of levels.
 
     Returns
     -------
@@ -102,73 +92,6 @@ _SIGNATURE = types.int64(types.float64, _IN2, _IN2, _TABLE, types.boolean, types
                          types.float64, types.float64[:, ::1], types.float64[::1])
 _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.boolean, types.float64,
                                        types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def compensated_add(total: float, compensation: float, x: float) -> tuple[float, float]:  # pragma: no cover
-    """Neumaier's compensated sum: total + x, and the rounding error it made added to the compensation
-    (the sum is total + compensation at the end).
-
-    The compiled adaptive rules (:func:`cone_pass`, :func:`mbimpact.averaging.graded_kernels.graded_pass`)
-    sum levels of thousands of nodes; a plain running sum errs by ~ m ε, which the error estimate of
-    two levels, amplified by |W| |P| / |W P|, turns into a difference above rtol where numpy's pairwise
-    sums (what the adaptive rule adds with) stay at ~ ε log m."""
-    t = total + x
-    if abs(total) >= abs(x):
-        compensation += (total - t) + x
-    else:
-        compensation += (x - t) + total
-    return t, compensation
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def level_decision(coarse: NDArray[np.float64], fine: NDArray[np.float64], W: NDArray[np.float64], rtol: float,
-                   facets: float, stall_checks: bool, previous: float, P: NDArray[np.float64],
-                   error: NDArray[np.float64]) -> tuple[int, float]:  # pragma: no cover — compiled
-    """:func:`mbimpact.averaging.refinement.refine`'s test on two successive levels of one velocity:
-    their relative difference by the velocity change W P they make (defined even where J is
-    rank-deficient, where P is not), settled within rtol or the rounding floor 100 ε √K of a K-facet
-    sum; with ``stall_checks``, stalled where it is rounding amplified by |W| |P| / |W P| and did not
-    shrink tenfold since the ``previous`` level (an ill-conditioned contact). Once settled, the fine
-    level's impulse and the difference are written to ``P`` (1, 3) and ``error`` (1,).
-
-    Returns
-    -------
-    (status, error) : (int, float)
-        :data:`SETTLED`, :data:`STALLED` or :data:`NOT_SETTLED` (refine on), and the difference.
-    """
-    diff, ref, norm = 0.0, 0.0, 0.0
-    for i in range(3):
-        dw = (fine[0] - coarse[0]) * W[0, i] + (fine[1] - coarse[1]) * W[1, i] + (fine[2] - coarse[2]) * W[2, i]
-        fw = fine[0] * W[0, i] + fine[1] * W[1, i] + fine[2] * W[2, i]
-        diff += dw * dw
-        ref += fw * fw
-        norm += fine[i] * fine[i]
-    err = math.sqrt(diff / ref)
-    rounding = 100 * _EPS * math.sqrt(facets)
-    if err <= max(rtol, rounding):
-        P[0, 0], P[0, 1], P[0, 2] = fine[0], fine[1], fine[2]
-        error[0] = err
-        return SETTLED, err
-    trace = W[0, 0] + W[1, 1] + W[2, 2]
-    if stall_checks and err <= rounding * (trace * math.sqrt(norm / ref)) and err > 0.1 * previous:
-        return STALLED, err
-    return NOT_SETTLED, err
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def rounding_floor(P: NDArray[np.float64], W: NDArray[np.float64]) -> float:  # pragma: no cover — compiled
-    """ε tr(W) |P| / |W P| for P (1, 3): the relative error by W P that P's own rounding (ε |P|) can make
-    where W nearly annihilates P. No rule computed in float64 certifies less
-    (:func:`mbimpact.averaging.refinement.rounding_floor`)."""
-    p2, wp2 = 0.0, 0.0
-    for i in range(3):
-        wp = P[0, 0] * W[0, i] + P[0, 1] * W[1, i] + P[0, 2] * W[2, i]
-        p2 += P[0, i] * P[0, i]
-        wp2 += wp * wp
-    if not wp2 > 0.0:
-        return math.inf
-    return _EPS * (W[0, 0] + W[1, 1] + W[2, 2]) * math.sqrt(p2 / wp2)
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
@@ -212,7 +135,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
     ``out`` (3,); 0, or the status that declines (a degenerate facet, no weight).
 
     The nodes' cos θ and sin θ come from the table on the full ring, else from polynomials
-    (:func:`~mbimpact.averaging.slope_pass_kernels.cos_sin`, in SIMD lanes); the sums run in blocks
+    (:func:`~mbimpact.averaging.compiled.primitives.cos_sin`, in SIMD lanes); the sums run in blocks
     of :data:`_BLOCK` nodes (:func:`_block_sums`), added with compensation."""
     if arc:  # the facing arc θ = π + h x
         ct, st, wt = np.empty(m), np.empty(m), np.empty(m)
@@ -247,13 +170,13 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
 
 @njit(cache=True, error_model="numpy")
 def adaptive_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
-                    levels: int, stall_checks: bool, configuration: bool, e: float, rtol: float, degenerate: float,
+                    levels: int, configuration: bool, e: float, rtol: float, degenerate: float,
                     P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
     """The adaptive rule's levels n, 2n, … (at most ``levels``) for one velocity: (status, final
-    node count). With ``stall_checks``, :func:`mbimpact.averaging.refinement.refine`'s tests that
-    rounding stopped the refinement (STALLED) or that the next level would pass max_nodes (CAPPED).
-    The body of :func:`cone_pair` and :func:`cone_pass`, without an explicit signature: other kernels
-    (:func:`mbimpact.laws.rough_kernels.cone_impact`) compile it for their own array types."""
+    node count), with :func:`mbimpact.averaging.refinement.refine`'s tests that rounding stopped the
+    refinement (STALLED) or that the next level would pass max_nodes (CAPPED).
+    The body of :func:`cone_adaptive`, without an explicit signature: other kernels (a single cone
+    impact, :mod:`mbimpact.laws.compiled_cone`) compile it for their own array types."""
     n = table.shape[1] // ((1 << levels) - 1)
     ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
     ut = math.hypot(ux, uy)
@@ -282,19 +205,20 @@ def adaptive_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64]
         if status:
             return status, m
         start += m
-        decision, err = level_decision(coarse, fine, W, rtol, m, stall_checks, previous, P, error)
+        decision, err = level_decision(coarse, fine, W, rtol, m, previous, P, error)
         if decision != NOT_SETTLED:
             return decision, m
         previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
-    return (CAPPED if stall_checks else NOT_SETTLED), m
+    return CAPPED, m
 
 
-@njit(_SIGNATURE, cache=True, error_model="numpy")
-def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
-              configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-              error: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
-    """(2.8) for one unit velocity on a cone at n and 2n nodes, and whether the pair settles it.
+@njit(_PASS, cache=True, error_model="numpy")
+def cone_adaptive(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
+                  levels: int, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+                  error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """The adaptive rule of (2.8) for one unit velocity on a cone: levels n, 2n, 4n, … until two
+    successive ones agree (:func:`mbimpact.averaging.refinement.refine`'s test and stopping rule).
 
     Parameters
     ----------
@@ -304,8 +228,10 @@ def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
         Delassus matrix in the local frame.
     U : ndarray, shape (1, 3)
         Unit contact velocity u in the local frame, u_n < 0.
-    table : ndarray, shape (5, 3n)
-        The nodes of both levels (:func:`rule_table` with ``levels=2``).
+    table : ndarray, shape (5, n (2^levels − 1))
+        The nodes of every level (:func:`rule_table`), every one ``max_nodes`` allows.
+    levels : int
+        The number of levels of the table.
     configuration : bool
         The facet weight of (2.7): ``"configuration"`` (w = −mᵀu / √(mᵀWm), kernels
         (mᵀu)² / (mᵀWm)^{3/2} and −mᵀu / √(mᵀWm)) if True, else ``"physical"`` (w = −mᵀu,
@@ -313,58 +239,34 @@ def cone_pair(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], tabl
     e : float
         Facet restitution.
     rtol : float
-        The pair settles the velocity when its relative difference is within this, or within the
-        rounding floor 100 ε √(2n) of the adaptive rule (the same decision).
+        Two levels agree when their relative difference is within this, or within the rounding floor
+        100 ε √m of an m-node sum.
     degenerate : float
         A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
     P : ndarray, shape (1, 3)
-        Output: the fine level's impulse P = (1+e) N / D, N = ∫ (mᵀu)² m / (mᵀWm)^γ and
-        D = ∫ (−mᵀu) / (mᵀWm)^δ over the facing arc (the caller allocates it: cheaper than
-        returning an array).
+        Output: the last level's impulse P = (1+e) N / D, N = ∫ (mᵀu)² m / (mᵀWm)^γ and
+        D = ∫ (−mᵀu) / (mᵀWm)^δ over the facing arc.
     error : ndarray, shape (1,)
-        Output: the error estimate |W (P_2n − P_n)| / |W P_2n|.
-
-    Returns
-    -------
-    int
-        :data:`SETTLED` when the pair settles the velocity (``P`` and ``error`` are written);
-        else the reason the general rule must take over, the outputs then meaningless:
-        :data:`DEGENERATE_FACET` (a node on a facet the mechanism cannot push: the general rule
-        masks it), :data:`NOT_FACING` (a level with no weight) or :data:`NOT_SETTLED` (the
-        difference exceeds the tolerance).
-    """
-    return adaptive_levels(alpha, W, U, table, 2, False, configuration, e, rtol, degenerate, P, error)[0]
-
-
-@njit(_PASS, cache=True, error_model="numpy")
-def cone_pass(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
-              configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-              error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """The whole adaptive rule of (2.8) for one unit velocity on a cone: levels n, 2n, 4n, … until two
-    successive ones agree (:func:`mbimpact.averaging.refinement.refine`'s test and stopping rule).
-
-    Parameters are those of :func:`cone_pair`, with ``table`` from :func:`rule_table` for ``levels``
-    levels, every level that ``max_nodes`` allows.
+        Output: the error estimate |W (P_m − P_{m/2})| / |W P_m|.
 
     Returns
     -------
     status : int
-        :data:`SETTLED` (``P`` and ``error`` are written); :data:`STALLED` or :data:`CAPPED` where the
-        adaptive rule would stop short of rtol with an AccuracyWarning (rounding amplified by an
-        ill-conditioned W; the last level of the table); :data:`DEGENERATE_FACET`, :data:`NOT_FACING`.
+        ``SETTLED`` (``P`` and ``error`` are written); ``STALLED`` or ``CAPPED`` where the numpy rule
+        would stop short of rtol with an AccuracyWarning (rounding amplified by an ill-conditioned W;
+        the last level of the table); ``DEGENERATE_FACET``, ``NOT_FACING``
+        (:mod:`~mbimpact.averaging.compiled.primitives`).
     nodes : int
         The node count of the last level computed.
     """
-    return adaptive_levels(alpha, W, U, table, levels, True, configuration, e, rtol, degenerate, P, error)
+    return adaptive_levels(alpha, W, U, table, levels, configuration, e, rtol, degenerate, P, error)
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`cone_pair` and :func:`cone_pass` callable in this process (numba's
-    import excluded: importing this module does it): their machine code loaded from numba's on-disk
-    cache (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The
-    first call pays it; later calls return near 0."""
+    """Wall time to make :func:`cone_adaptive` callable in this process (numba's import excluded:
+    importing this module does it): its machine code loaded from numba's on-disk cache, or compiled
+    when that cache is missing or stale."""
     start = time.perf_counter()
-    args = (0.4, np.eye(3) / 3.0, np.array([[0.6, 0.0, -0.8]]))
-    cone_pair(*args, rule_table(1), True, 0.5, 1e-12, 1e-14, np.empty((1, 3)), np.empty(1))
-    cone_pass(*args, rule_table(1, 4), 4, True, 0.5, 1e-12, 1e-14, np.empty((1, 3)), np.empty(1))
+    cone_adaptive(0.4, np.eye(3) / 3.0, np.array([[0.6, 0.0, -0.8]]), rule_table(1, 4), 4, True, 0.5, 1e-12,
+                  1e-14, np.empty((1, 3)), np.empty(1))
     return time.perf_counter() - start
