@@ -1,17 +1,21 @@
 """mbimpact — Ivanov's constructive model of impact on rough surfaces for multibody systems.
 
-The pipeline, one subpackage per stage:
+The pipeline, one subpackage per stage; a stage imports only the stages before it:
 
 1. :mod:`mbimpact.mechanism` — Pinocchio: A(q), the contact Jacobian J(q);
    :mod:`mbimpact.geometry` — contacts from the mechanism's own collision geometry (coal);
 2. :mod:`mbimpact.metric` — the A-metric at the contact: Delassus matrix W, local frame;
-3. :mod:`mbimpact.roughness` — facets and their measure (G, P);
+3. :mod:`mbimpact.roughness` — facets and their measure (G, P), integrated by the rules of
+   :mod:`mbimpact.quadrature`;
 4. :mod:`mbimpact.facets` — the impact on one facet (Newton's (2.6), or Coulomb, compliant, ...);
    :mod:`mbimpact.averaging` — the rules that compute the two integrals of (2.8);
-5. :mod:`mbimpact.laws` — Newton's law, the rough law (2.8), Coulomb's law;
-6. :mod:`mbimpact.results` — I = A Δv = Jᵀ P by (1.1), results that check themselves.
+5. :mod:`mbimpact.laws` — Newton's law, the rough law (2.8), Coulomb's law, each returning
+   I = A Δv = Jᵀ P by (1.1);
+6. :mod:`mbimpact.pipeline` — the stages assembled for a mechanism (:func:`impact`,
+   :func:`impact_batch`).
 
-:mod:`mbimpact.pipeline` assembles them for a mechanism (:func:`impact`, :func:`impact_batch`).
+Every stage shares :mod:`mbimpact.results` (the outcomes, which check themselves),
+:mod:`mbimpact.errors` and :mod:`mbimpact.common`.
 
 Around it: :mod:`mbimpact.compliant` (the model resolved in time),
 :mod:`mbimpact.simulation` (scenes and their simulation, section 4),
@@ -51,8 +55,19 @@ from .errors import (
     ShapeError,
     TableError,
 )
-from .facets import FACETS, CompliantFacet, CoulombFacet, FacetLaw, HuntCrossleyFacet, NewtonFacet, facet_law
-from .laws import CoulombLaw, ImpactLaw, NewtonLaw, RoughLaw, e_from_k, impact_duration, k_from_e
+from .facets import (
+    FACETS,
+    CompliantFacet,
+    CoulombFacet,
+    FacetLaw,
+    HuntCrossleyFacet,
+    NewtonFacet,
+    e_from_k,
+    facet_law,
+    impact_duration,
+    k_from_e,
+)
+from .laws import CoulombLaw, ImpactLaw, NewtonLaw, RoughLaw
 from .mechanism import (
     Contact,
     Mechanism,
@@ -114,7 +129,7 @@ if TYPE_CHECKING:  # loaded on first use: see _ON_USE below
         sweep,
     )
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 __all__ = [
     # pipeline

@@ -152,53 +152,21 @@ def warn(category: type[ImpactWarning], message: str) -> None:
     impact, apply, apply_batch and the simulator reach the place that warns at
     different depths; naming the user's line makes Python's default filter show a
     warning once per call site. A category that the filters drop whatever its origin
-    (:func:`ignored`) costs no walk of the stack: a loop of impacts that silences it
-    pays ~0.3 µs a warning.
+    (:func:`ignored`) costs no walk of the stack, so a loop of impacts that silences it
+    pays almost nothing for it.
     """
     if ignored(category):  # what warn_explicit would decide for any frame; for "ignore" it records nothing
         return
     frame: FrameType | None = sys._getframe(1)
     level = 2  # stacklevel 2 is the caller of this function
-    while frame is not None:
-        filename = frame.f_code.co_filename
-        inside = _FILE_INSIDE.get(filename)
-        if inside is None:
-            inside = _inside(filename)
-            # a relative file name depends on the working directory: decided again each time ("<stdin>",
-            # "<string>" are never the package's, kept); and files made up on the fly (a loop of compile()
-            # with new names) must not grow the map without bound
-            if (filename.startswith("<") or os.path.isabs(filename)) and len(_FILE_INSIDE) < 4096:
-                _FILE_INSIDE[filename] = inside
-        if not inside:
-            break
+    while frame is not None and _inside(frame.f_code.co_filename):
         frame, level = frame.f_back, level + 1
-    if frame is None:  # no frame outside the package: Python's own rule for a stack level past the stack
-        warnings.warn(message, category, stacklevel=level)
-        return
-    # The caller's frame is in hand: what warnings.warn(stacklevel=level) takes from it (CPython 3.11's
-    # setup_context), without walking the stack a second time (~0.1 µs a frame): its file and line, its
-    # module's name and warning registry
-    module_globals = frame.f_globals
-    registry = module_globals.get("__warningregistry__", _MISSING)
-    if registry is _MISSING:
-        registry = module_globals["__warningregistry__"] = {}
-    module = module_globals.get("__name__", _MISSING)
-    lineno = frame.f_lineno
-    warnings.warn_explicit(message, category, filename, -1 if lineno is None else lineno,
-                           module if module is None or isinstance(module, str) else "<string>", registry)
-
-
-_MISSING = object()
-
-
-# whether an absolute file name belongs to the package (see warn): one lookup a frame
-_FILE_INSIDE: dict[str, bool] = {}
+    warnings.warn(message, category, stacklevel=level)
 
 
 def _inside(filename: str) -> bool:
-    """Whether a code object's file belongs to the package. Absolute paths are cached (warnings in a
-    loop of impacts would otherwise resolve the same few paths on every call); a relative one depends
-    on the working directory, and ``<string>``, ``<stdin>`` are never the package's."""
+    """Whether a code object's file belongs to the package. A relative name depends on the working
+    directory, so it is resolved each time; ``<string>``, ``<stdin>`` are never the package's."""
     if filename.startswith("<"):
         return False
     if not os.path.isabs(filename):

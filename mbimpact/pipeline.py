@@ -85,28 +85,54 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     NoImpactError, NoFacingFacetError
         The contact point does not approach the surface, or no facet faces it.
     """
-    if not (isinstance(law, ImpactLaw) and isinstance(mech, Mechanism) and isinstance(contact, Contact)):
-        _check_parts(mech, contact, law)
+    # the parts' kinds are checked once per combination of classes (isinstance on an ABC costs a single
+    # impact as much as Newton's arithmetic)
+    route = _ROUTES.get((type(mech), type(contact), type(law)))
+    if route is None:
+        route = _route(mech, contact, law)
+    return route(mech, q, v, contact, law)
+
+
+# The route of each (mechanism, contact, law) combination of classes: the front end's, or the pipeline's
+_ROUTES: dict[tuple[type, type, type], Callable[..., ImpactResult]] = {}
+
+
+def _route(mech: object, contact: object, law: object) -> Callable[..., ImpactResult]:
+    _check_parts(mech, contact, law)
+    assert isinstance(mech, Mechanism) and isinstance(contact, Contact)
+    if len(_ROUTES) > 1000:  # classes made on the fly: keep the table small
+        _ROUTES.clear()
+    route = _front if _front_parts(mech, contact) else _pipeline
+    _ROUTES[(type(mech), type(contact), type(law))] = route
+    return route
+
+
+def _front(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: PointContact, law: ImpactLaw) -> ImpactResult:
+    """Route 1, the compiled front end, at a point contact of a spatial law; what it leaves takes the
+    pipeline."""
+    native = front.NATIVE
+    if native is None or law.dim not in (None, 3):
+        return _pipeline(mech, q, v, contact, law)
     compiled = law.compiled_impact()
-    # 1. the compiled front end, at a point contact of a spatial law
-    if front.NATIVE is not None and law.dim in (None, 3) and _front_parts(mech, contact):
-        assert isinstance(contact, PointContact)
-        fid = mech.frame_id(contact.frame)
-        if compiled is not None and compiled.front is not None:  # the whole impact in C++
-            bound, native = mech.front_end(), front.NATIVE
-            if bound is not None and native is not None:
-                n = mech.nv
-                out = np.empty(6 * n + 12 + n * n)
-                if getattr(native, compiled.front)(bound, q, v, fid, contact.point, contact.basis(),
-                                                   *compiled.front_args, out) == native.DONE:
-                    return ImpactResult.from_packed(out, n, 3, law)
-        else:
-            stage = mech.front_stage_one(q, v, fid, contact.point)
-            if stage is not None:
-                A, U, D, J = stage
-                J.setflags(write=False)
-                return _on_factor(mech, q, v, law, compiled, A, U, D, J, contact.basis(), True)  # type: ignore[arg-type]
-    # what the front end leaves: the state checked and named, the contact's own J and frame
+    if compiled is not None and compiled.front is not None:  # the whole impact in C++
+        bound = mech.front_end()
+        if bound is not None:
+            n = mech.nv
+            out = np.empty(6 * n + 12 + n * n)
+            if getattr(native, compiled.front)(bound, q, v, mech.frame_id(contact.frame), contact.point,
+                                               contact.basis(), *compiled.front_args, out) == native.DONE:
+                return ImpactResult.from_packed(out, n, 3, law)
+    else:
+        stage = mech.front_stage_one(q, v, mech.frame_id(contact.frame), contact.point)
+        if stage is not None:
+            A, U, D, J = stage
+            J.setflags(write=False)
+            return _on_factor(mech, q, v, law, compiled, A, U, D, J, contact.basis(), True)  # type: ignore[arg-type]
+    return _pipeline(mech, q, v, contact, law)
+
+
+def _pipeline(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: ImpactLaw) -> ImpactResult:
+    """Routes 2 and 3 after the checks that name what is wrong, with the contact's own J and frame."""
     q, v = mech.check_state(q, v)
     d = law.dim or 3
     J, R = contact.jacobian(mech, q, d)
@@ -117,7 +143,7 @@ def impact(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: I
     J.setflags(write=False)
     if d == 3:
         A, U, D = mech.factor_arrays(q)
-        return _on_factor(mech, q, v, law, compiled, A, U, D, J, R, False)
+        return _on_factor(mech, q, v, law, law.compiled_impact(), A, U, D, J, R, False)
     return law.apply_metric(ContactMetric.from_mechanism(mech, q, J), v, R)
 
 

@@ -9,7 +9,8 @@ from numpy.typing import NDArray
 
 from ..results.impact import ContactImpulses
 from .base import Averaging
-from .integrand import AveragingSpec, check_facing, facet_impulses, facet_terms, general_facets, rule_average
+from .integrand import (AveragingSpec, check_facing, facet_impulses, facet_terms, general_facets, in_blocks,
+                        rule_average)
 
 __all__ = ["Exact", "MonteCarlo"]
 
@@ -23,8 +24,11 @@ class Exact(Averaging):
     any_facet: ClassVar[bool] = True
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
-        (P,), (facets,) = rule_average(spec, W, U, (1,))
-        return ContactImpulses(P, np.zeros(len(U)), facets, self.name)
+        def block(rows: NDArray[np.float64]) -> ContactImpulses:
+            (P,), (facets,) = rule_average(spec, W, rows, (1,))
+            return ContactImpulses(P, np.zeros(len(rows)), facets, self.name)
+
+        return in_blocks(block, U)
 
 
 class MonteCarlo(Averaging):
@@ -39,6 +43,10 @@ class MonteCarlo(Averaging):
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         m = spec.roughness.sample(np.random.default_rng(spec.seed), spec.samples)
+        return in_blocks(lambda rows: self._sampled(spec, m, W, rows), U)
+
+    def _sampled(self, spec: AveragingSpec, m: NDArray[np.float64], W: NDArray[np.float64], U: NDArray[np.float64]
+                 ) -> ContactImpulses:
         w, c = facet_terms(spec, m, np.ones(len(m)), W, U)
         total = w.sum(axis=1)
         check_facing(spec, total, U)

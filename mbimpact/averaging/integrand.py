@@ -24,6 +24,7 @@ which only the quadrature methods (exact, fixed, adaptive, graded, monte-carlo) 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -32,13 +33,36 @@ from numpy.typing import NDArray
 
 from ..common.geometry import DEGENERATE
 from ..errors import NoFacingFacetError, ParameterError
+from ..results.impact import ContactImpulses
 
 if TYPE_CHECKING:
     from ..facets.base import FacetLaw
     from ..roughness.base import Roughness, Rule
 
-__all__ = ["Flux", "FLUXES", "check_flux", "kernel_powers", "AveragingSpec", "facet_terms", "facet_impulses",
+__all__ = ["BLOCK_ROWS", "in_blocks", "Flux", "FLUXES", "check_flux", "kernel_powers", "AveragingSpec", "facet_terms", "facet_impulses",
            "general_facets", "rule_average", "relative_change", "quotient", "check_facing"]
+
+#: Rows a rule works on at a time where it keeps work arrays of (rows × nodes) (exact sums, quadratures,
+#: tables): they stay in cache, and a batch of any size in bounded memory.
+BLOCK_ROWS = 2048
+
+
+def in_blocks(average: Callable[[NDArray[np.float64]], ContactImpulses], U: NDArray[np.float64]
+              ) -> ContactImpulses:
+    """``average(U)`` on blocks of :data:`BLOCK_ROWS` rows at a time, the results joined (the node count
+    the largest, the methods joined by "+")."""
+    rows = BLOCK_ROWS
+    if len(U) <= rows:
+        return average(U)
+    P, error, nodes, methods = np.empty_like(U), np.empty(len(U)), 0, []
+    for start in range(0, len(U), rows):
+        block = slice(start, start + rows)
+        out = average(U[block])
+        P[block], error[block], nodes = out.P, out.error, max(nodes, out.nodes)
+        if out.method not in methods:
+            methods.append(out.method)
+    return ContactImpulses(P, error, nodes, "+".join(sorted(methods)))
+
 
 #: The weight of a facet in (2.7) (:class:`mbimpact.RoughLaw`).
 Flux = Literal["physical", "configuration"]

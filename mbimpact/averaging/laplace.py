@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..common.compiled import kernel_array
+from ..common.threads import over_rows
 from ..common.geometry import DEGENERATE
 from ..results.impact import ContactImpulses
 from ..roughness.slopes import GaussianSlopes, GaussianTiltDensity
@@ -85,13 +86,22 @@ class Laplace(Averaging):
         sigma = _sigma(spec)
         if sigma is None or W.shape != (3, 3) or U.ndim != 2 or U.shape[1] != 3:
             return None
-        kernels = LAPLACE.get()
+        kernel = LAPLACE.get().laplace_average
         P, error = np.empty(U.shape), np.empty(len(U))  # written by the kernel
-        status, nodes = kernels.laplace_average(kernel_array(W), kernel_array(U), sigma, float(spec.e),
-                                                float(spec.rtol), DEGENERATE, P, error)
-        if status != SETTLED:
+        W, U = kernel_array(W), kernel_array(U)
+        e, rtol = float(spec.e), float(spec.rtol)
+        if len(U) == 1:
+            status, nodes = kernel(W, U, sigma, e, rtol, DEGENERATE, P, error)
+            return ContactImpulses(P, error, int(nodes), self.name) if status == SETTLED else None
+        outcomes: list[tuple[int, int]] = []  # each block's (status, nodes); list.append is atomic
+
+        def rows(a: int, b: int) -> None:
+            outcomes.append(kernel(W, U[a:b], sigma, e, rtol, DEGENERATE, P[a:b], error[a:b]))
+
+        over_rows(rows, len(U))  # the rows are independent: on the kernel threads, the GIL released
+        if any(status != SETTLED for status, _ in outcomes):
             return None
-        return ContactImpulses(P, error, int(nodes), self.name)
+        return ContactImpulses(P, error, max(int(nodes) for _, nodes in outcomes), self.name)
 
     def reason(self, spec: AveragingSpec) -> str:
         return ("the Laplace reduction applies to spatial GaussianSlopes (RMS slope within "

@@ -26,7 +26,8 @@ from . import backends
 from .base import SKIP, Averaging
 from .compiled import GRADED_CONE
 from .compiled.codes import ADAPTIVE_STEP, GRADED_STEP, PASSES_ON, SETTLED
-from .integrand import AveragingSpec, relative_change, rule_average
+from . import integrand
+from .integrand import AveragingSpec, in_blocks, relative_change, rule_average
 
 __all__ = ["Fixed", "Adaptive", "Graded", "peaked_rule", "refine", "rounding_floor"]
 
@@ -73,7 +74,7 @@ class Adaptive(Averaging):
 
     def reference(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
         """The rule in numpy, for any rows and facet law: the reference its compiled backend agrees with."""
-        return refine(spec, W, U, None, len(U), self.name)
+        return refine(spec, W, U, None, min(len(U), integrand.BLOCK_ROWS), self.name)
 
     def cone_step(self, spec: AveragingSpec) -> int | None:
         return ADAPTIVE_STEP
@@ -128,7 +129,8 @@ class Graded(Averaging):
         if isinstance(rough, Cone) and W.shape == (3, 3):  # the rounding of q at the ring's minima (its peaks)
             sensitivity = minima_sensitivity(rough.alpha, W, ring_minima(rough.alpha, W)[0],
                                              1.0 if spec.flux == "configuration" else 0.5)
-        return refine(spec, W, U, rule, rough.graded_rows or len(U), self.name, sensitivity)
+        return refine(spec, W, U, rule, rough.graded_rows or min(len(U), integrand.BLOCK_ROWS), self.name,
+                      sensitivity)
 
     def reason(self, spec: AveragingSpec) -> str:
         return f"{spec.roughness!r} has no graded rule for this W (its kernels have no narrow peak)"
@@ -168,9 +170,14 @@ def peaked_rule(spec: AveragingSpec, W: NDArray[np.float64], peaked: float, scre
 def fixed(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None, method: str
           ) -> ContactImpulses:
     """``spec.nodes`` nodes (the estimate compares with half as many)."""
-    assert spec.nodes is not None
-    (P, coarse), _ = rule_average(spec, W, U, (spec.nodes, max(1, spec.nodes // 2)), rule)
-    return ContactImpulses(P, relative_change(P, coarse, W), spec.nodes, method)
+    nodes = spec.nodes
+    assert nodes is not None
+
+    def block(rows: NDArray[np.float64]) -> ContactImpulses:
+        (P, coarse), _ = rule_average(spec, W, rows, (nodes, max(1, nodes // 2)), rule)
+        return ContactImpulses(P, relative_change(P, coarse, W), nodes, method)
+
+    return in_blocks(block, U)
 
 
 def refine(spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64], rule: Rule | None, rows: int,

@@ -39,7 +39,8 @@ from ..common.geometry import DEGENERATE, EPS, facing_half_width
 from ..quadrature.rules import gauss_legendre
 from ..results.impact import ContactImpulses
 from .base import Averaging
-from .integrand import AveragingSpec, Flux, kernel_powers, quotient
+from .integrand import AveragingSpec, Flux, in_blocks, kernel_powers, quotient
+from .laplace import Laplace
 from .ring import unit_powers
 
 if TYPE_CHECKING:
@@ -68,6 +69,10 @@ _MIN_TILT_NODES, _MAX_TILT_NODES = 32, 1024
 # batches of ~1000 rows and more, and then cost microseconds a row.
 _BUDGET = 2e7
 _BUDGET_PER_ROW = 2e5
+# Kernel samples that cost what the Laplace reduction spends on a velocity beyond a table's lookup (~4 µs at
+# ~0.15 µs a sample): where it applies, a table is built once the velocities averaged at its W cost the
+# reduction what the table is found to cost at the least (its series then get four times that)
+_LAPLACE_ROW = 30.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,7 +224,11 @@ def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, 
     return H, tail
 
 
-def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: float = _BUDGET) -> TiltTable | None:
+def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: float = _BUDGET,
+           series_budget: float | None = None) -> tuple[TiltTable | None, float]:
+    """The table, or None where it is too rough, would cost more than ``budget`` kernel samples at the
+    least, or its series more than ``series_budget`` (default: ``budget``); and the least it costs (what a
+    later budget must reach for a refused table to be tried again: inf where it can never be built)."""
     lo, hi = rough.support
     # Fourier degree in φ: enough for the sharpest ring of the support
     probe = np.linspace(lo, hi, 65)
@@ -227,12 +236,14 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: f
     while True:
         G = _fourier(probe, W, flux, M)
         if G is None:
-            return None
+            return None, math.inf
         if np.all(np.abs(G[:, :, 3 * M // 8 :]).max(axis=(1, 2)) <= _TAIL * np.abs(G).max(axis=(1, 2))):
             break
         M *= 2
-        if M // 2 > _MAX_FOURIER or 33 * 4 * _MIN_TILT_NODES * M > budget:  # the least a series costs
-            return None
+        if M // 2 > _MAX_FOURIER:
+            return None, math.inf
+        if 33 * 4 * _MIN_TILT_NODES * M > budget:  # the least a series costs
+            return None, 33 * 4 * _MIN_TILT_NODES * M
     # moments for β ≤ β_h (all rings full): l = 0, 1, 2; they also fix the tilt node count
     def moments_with(n: int) -> NDArray[np.complex128] | None:
         x, w = gauss_legendre(n)
@@ -250,21 +261,25 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: f
     while True:
         moments = moments_with(2 * n)
         if coarse is None or moments is None:
-            return None
+            return None, math.inf
         if np.abs(moments - coarse).max() <= _TAIL * np.abs(moments).max():
             break
         n, coarse = 2 * n, moments
         if 2 * n > _MAX_TILT_NODES:
-            return None
+            return None, math.inf
     n_tilt = 2 * n
     beta_h = math.pi / 2 - hi
     ends = [beta_h, math.pi / 2 - lo, math.pi / 2] if lo > 0.0 else [beta_h, math.pi / 2]
-    left = [budget]  # kernel samples left for all the pieces
+    # what its series cost at the least: the second level of each (65 incidences), seldom fewer
+    least = (len(ends) - 1) * 65 * 2 * n_tilt * M
+    if least > budget:
+        return None, least
+    left = [budget if series_budget is None else series_budget]  # kernel samples left for all the pieces
     pieces, tail = [], 0.0
     for beta0, beta1 in zip(ends[:-1], ends[1:]):
         piece = _series(rough, W, flux, M, n_tilt, beta0, math.sqrt(beta1 - beta0), left)
         if piece is None:
-            return None
+            return None, math.inf if left[0] >= 0 else max(least, budget + 1.0)  # too rough, or more than allowed
         pieces.append(piece[0])
         tail = max(tail, piece[1])
     # keep the azimuthal terms that matter in any piece, the same L for all
@@ -272,7 +287,7 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: f
     L = max(2, max(int(np.flatnonzero((np.abs(cheb) > 0.1 * _TAIL * scale).any(axis=(0, 1))).max())
                    for _, _, cheb in pieces))
     return TiltTable(beta_h, moments, tuple((b, t, np.ascontiguousarray(c[:, :, : L + 1])) for b, t, c in pieces),
-                     tail)
+                     tail), least
 
 
 def _series(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, M: int, n_tilt: int, beta0: float,
@@ -317,13 +332,30 @@ def _series(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, M: int, 
 # The last few tables (or refusals, with the budget they were refused under), by (measure,
 # W, flux): a batch is split into blocks of rows that share W, and a table is worth
 # building once per batch only; a larger batch may retry what a smaller one refused.
-_CACHE: OrderedDict[tuple[int, bytes, str], tuple[IsotropicSlopes, TiltTable | None, float]] = OrderedDict()
+_CACHE: OrderedDict[tuple[int, bytes, str], tuple[IsotropicSlopes, TiltTable | None, float, float]] = OrderedDict()
 _CACHE_SIZE = 8
 _LOCK = threading.Lock()
 
 
-def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build: bool = True, rows: int = 0
-               ) -> TiltTable | None:
+# Velocities averaged so far at the last few (measure, W, flux) without a table (TiltTableMethod.worthwhile)
+_SEEN: OrderedDict[tuple[int, bytes, str], tuple[object, int]] = OrderedDict()
+
+
+def _count_rows(rough: object, W: NDArray[np.float64], flux: Flux, rows: int) -> int:
+    """The velocities averaged at (measure, W, flux) so far, ``rows`` more included."""
+    key = (id(rough), np.ascontiguousarray(W, dtype=float).tobytes(), str(flux))
+    with _LOCK:
+        seen = _SEEN.get(key)
+        total = rows + (seen[1] if seen is not None and seen[0] is rough else 0)
+        _SEEN[key] = (rough, total)  # the measure is kept alive, so its id stays unique
+        _SEEN.move_to_end(key)
+        while len(_SEEN) > _CACHE_SIZE:
+            _SEEN.popitem(last=False)
+    return total
+
+
+def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build: bool = True, rows: int = 0,
+               budget: float | None = None) -> TiltTable | None:
     """The cached :class:`TiltTable` of a spatial isotropic measure for Delassus matrix ``W`` (3, 3).
 
     Parameters
@@ -340,6 +372,10 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
     rows : int
         Velocities the table will serve: a larger batch affords a costlier table (the
         peaked kernels of a strongly anisotropic W need finer series).
+    budget : float, optional
+        Instead: the kernel samples the table may cost at the least (its series then get four
+        times that); a table refused is tried again once the budget reaches what it was found to
+        cost at the least.
 
     Returns
     -------
@@ -351,17 +387,21 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
         return None
     W = np.ascontiguousarray(W, dtype=float)
     key = (id(rough), W.tobytes(), str(flux))
-    budget = max(_BUDGET, _BUDGET_PER_ROW * rows)
+    least = budget is not None  # the budget bounds the least cost, the series get four times it
+    budget = max(_BUDGET, _BUDGET_PER_ROW * rows) if budget is None else budget
     with _LOCK:
         hit = _CACHE.get(key)
-        if hit is not None and hit[0] is rough and (hit[1] is not None or hit[2] >= budget or not build):
+        # a table; or a refusal under a budget at least this one, or short of what the refused table was
+        # found to cost at the least
+        if hit is not None and hit[0] is rough and (hit[1] is not None or hit[2] >= budget or hit[3] > budget
+                                                     or not build):
             _CACHE.move_to_end(key)
             return hit[1]
     if not build:
         return None
-    table = _build(rough, W, flux, budget)
+    table, cost = _build(rough, W, flux, budget, 4.0 * budget if least else budget)
     with _LOCK:
-        _CACHE[key] = (rough, table, budget)  # the measure is kept alive, so its id stays unique
+        _CACHE[key] = (rough, table, budget, cost)  # the measure is kept alive, so its id stays unique
         _CACHE.move_to_end(key)
         while len(_CACHE) > _CACHE_SIZE:
             _CACHE.popitem(last=False)
@@ -370,7 +410,7 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
 
 class TiltTableMethod(Averaging):
     """A spatial isotropic tilt density at a fixed W by its table in the incidence: built once
-    per (measure, W, flux) in 0.1–3 s (up to ~1e-3 s a velocity of the batch on a strongly
+    per (measure, W, flux) in 0.1–10 s (up to ~1e-3 s a velocity of the batch on a strongly
     anisotropic W), then microseconds per velocity. Declines measures too rough for a table
     within its limits and that budget (a nearly singular W, or a small batch on a strongly
     anisotropic one).
@@ -380,6 +420,12 @@ class TiltTableMethod(Averaging):
     min_rows : int
         ``"auto"`` builds a table for batches of at least this many velocities; smaller
         blocks of the same batch reuse a table already built.
+    rows_before_table : int
+        Where the Laplace reduction averages the measure (Gaussian slopes, the physical flux:
+        :class:`~mbimpact.averaging.Laplace`, exact to rtol at a few microseconds a velocity),
+        ``"auto"`` builds a table once the velocities averaged at one W (this batch's included) cost
+        the reduction what the table costs at the least: a table pays for its build over many rows,
+        and below that the reduction is cheaper.
     """
 
     name: ClassVar[str] = "tilt-table"
@@ -389,17 +435,32 @@ class TiltTableMethod(Averaging):
         return super().supports(spec) and spec.roughness.dim == 3
 
     def worthwhile(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> bool:
+        """A table already built for this W, or a batch of at least :attr:`min_rows` rows; where the
+        Laplace reduction applies, a table that pays against it (built here, then, at its least cost)."""
         if spec.nodes is not None:
             return False
-        return len(U) >= self.min_rows or tilt_table(spec.roughness, W, spec.flux, build=False) is not None  # type: ignore[arg-type]
+        rough = spec.roughness
+        if tilt_table(rough, W, spec.flux, build=False) is not None:  # type: ignore[arg-type]
+            return True
+        if len(U) < self.min_rows:
+            return False
+        if not Laplace().supports(spec):
+            return True
+        budget = _LAPLACE_ROW * _count_rows(rough, W, spec.flux, len(U))  # what these rows cost the reduction
+        return tilt_table(rough, W, spec.flux, rows=len(U), budget=budget) is not None  # type: ignore[arg-type]
 
     def average(self, spec: AveragingSpec, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses | None:
         table = tilt_table(spec.roughness, W, spec.flux, rows=len(U))  # type: ignore[arg-type]
         if table is None:
             return None
-        N, D = table.integrals(U)
         bound = table.tail + EPS * table.terms
-        return ContactImpulses(quotient(spec, N, D, U), np.full(len(U), bound), 2 * table.degree + 1, self.name)
+
+        def block(rows: NDArray[np.float64]) -> ContactImpulses:
+            N, D = table.integrals(rows)
+            return ContactImpulses(quotient(spec, N, D, rows), np.full(len(rows), bound), 2 * table.degree + 1,
+                                   self.name)
+
+        return in_blocks(block, U)
 
     def reason(self, spec: AveragingSpec) -> str:
         return "the measure's kernels are too peaked for a table within its limits (a strongly anisotropic W)"

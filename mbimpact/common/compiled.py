@@ -78,7 +78,7 @@ class KernelModule:
 
         numba's dispatcher resolves the type of every argument before each call (~30 ns an
         argument: 0.6 µs of a single impact's ~10 µs for the 19 arguments of
-        :func:`mbimpact.laws.rough_kernels.cone_impact`). A kernel compiled for one explicit
+        :func:`mbimpact.laws.compiled_cone.cone_impact`). A kernel compiled for one explicit
         signature needs none of it: its entry point converts the arguments as that signature says.
         It checks nothing: an array of another dtype or number of dimensions is read as if it had
         the signature's (wrong values, or memory out of bounds). Only for arguments the package

@@ -30,6 +30,7 @@ __all__ = [
     "incidence_split",
     "offset_point_jacobian",
     "ring_quadratic_form",
+    "ring_coefficients",
     "scaled_norm",
 ]
 
@@ -81,7 +82,12 @@ def ring_quadratic_form(s: Any, c: Any, W: NDArray[np.float64] | list[list[float
     """q(φ) = mᵀWm on the ring of tilt α (s = sin α, c = cos α; floats or arrays) as
     q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ: the coefficients (q₀, a₁, b₁, a₂, b₂)
     for a local-frame Delassus matrix W (3, 3), an array or its ``tolist()``."""
-    w = W if isinstance(W, list) else W.tolist()
+    return ring_coefficients(s, c, W if isinstance(W, list) else W.tolist())
+
+
+def ring_coefficients(s: Any, c: Any, w: Any) -> tuple[Any, Any, Any, Any, Any]:
+    """:func:`ring_quadratic_form` on any ``w`` indexed as ``w[i][j]``: the arithmetic alone, which the
+    compiled rules compile as it stands."""
     return (0.5 * s * s * (w[0][0] + w[1][1]) + c * c * w[2][2], 2 * s * c * w[0][2], 2 * s * c * w[1][2],
             0.5 * s * s * (w[0][0] - w[1][1]), s * s * w[0][1])
 

@@ -38,7 +38,7 @@ from ..errors import (
     warn,
 )
 from ..mechanism.mechanism import Mechanism
-from ..laws.restitution import impact_duration, k_from_e
+from ..facets.restitution import impact_duration, k_from_e
 from ..roughness.base import check_normals
 
 __all__ = ["Resolved", "resolve", "check_mechanism", "check_contacts"]

@@ -19,6 +19,7 @@ from .coulomb import CoulombFacet, planar_coulomb, spatial_coulomb
 from .hunt_crossley import HuntCrossleyFacet, hunt_crossley_restitution
 from .newton import NewtonFacet
 from .registry import FACETS, facet_law, method_label, split_method
+from .restitution import e_from_k, impact_duration, k_from_e, restitution_from
 
 __all__ = [
     "FacetLaw",
@@ -37,4 +38,8 @@ __all__ = [
     "spatial_coulomb",
     "compliant_impulses",
     "hunt_crossley_restitution",
+    "e_from_k",
+    "k_from_e",
+    "impact_duration",
+    "restitution_from",
 ]

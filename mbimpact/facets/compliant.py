@@ -62,7 +62,7 @@ from numpy.typing import NDArray
 
 from ..common.validation import as_count, as_scalar
 from ..errors import IntegrationError
-from ..laws.restitution import k_from_e
+from .restitution import k_from_e
 from .base import FacetLaw
 
 __all__ = ["CompliantFacet", "compliant_impulses", "CompliantHistory"]

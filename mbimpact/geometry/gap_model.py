@@ -4,26 +4,22 @@ A :class:`GapModel` is built once for a mechanism, a list of obstacles and a lis
 holds one ``pinocchio.GeometryModel`` (the mechanism's collision objects, then the obstacles on the
 universe joint) and, per thread, its ``pinocchio.Data`` and ``GeometryData``. The queries:
 
-=============================== =============================================== ===========================
-query                           returns                                         CPU cost (µs)
-=============================== =============================================== ===========================
-:meth:`GapModel.distances`      signed distances (P,), no Jacobian              ≈ 6 + 0.7 per pair
-:meth:`GapModel.rates`          distances and their rates ḟ (P,), no Jacobian   (one pass with v)
-:meth:`GapModel.gaps`           a :class:`Gap` per pair, with J and ∇f          ≈ 13 + 15 per pair
-:meth:`GapModel.evaluate`       the same as stacked arrays (:class:`GapArrays`) ≈ 24 + 13 per pair
-:meth:`GapModel.contact_points` every witness point within a margin (contact    ≈ 100 for a box lying flat
-                                patches), each a :class:`Gap`                   (4 points)
-=============================== =============================================== ===========================
+=============================== ===============================================
+query                           returns
+=============================== ===============================================
+:meth:`GapModel.distances`      signed distances (P,), no Jacobian
+:meth:`GapModel.rates`          distances and their rates ḟ (P,), no Jacobian
+:meth:`GapModel.gaps`           a :class:`Gap` per pair, with J and ∇f
+:meth:`GapModel.evaluate`       the same as stacked arrays (:class:`GapArrays`)
+:meth:`GapModel.contact_points` every witness point within a margin (contact
+                                patches), each a :class:`Gap`
+=============================== ===============================================
 
-Measured (``mbimpact bench --part geometry`` repeats it; Python 3.11, pinocchio 4.1, coal 3.0.3, CPU time on a
-shared 2-core machine; wall-clock times under load were up to twice these) for spheres, boxes,
-capsules, cylinders and convex hulls against half-spaces: the shape hardly matters, Python does.
-Pairs of hulls cost ~2 µs per distance; a triangle-soup mesh (``Mesh(convex=False)``) ~900 µs.
-For comparison, one ``mbi.impact`` with ``RoughLaw(Cone(0.3), 0.5)`` costs ~250 µs on a
-``PointContact`` and ~330 µs on a :class:`~mbimpact.geometry.GeometryContact` (its Jacobian
-~40 µs). With a ``cutoff`` (distances, gaps, evaluate) or a ``margin`` (contact points) and many
-pairs, the bounding-sphere broad phase of :mod:`mbimpact.geometry.broadphase` skips the pairs
-that cannot be that close.
+The shape of the objects hardly matters to the cost of a query (``mbimpact bench --part geometry``
+measures them); a triangle-soup mesh (``Mesh(convex=False)``) costs hundreds of times a convex hull.
+With a ``cutoff`` (distances, gaps, evaluate) or a ``margin`` (contact points) and many pairs, the
+bounding-sphere broad phase of :mod:`mbimpact.geometry.broadphase` skips the pairs that cannot be that
+close.
 
 The kinematics are computed once per query: ``pin.forwardKinematics`` (distances) or
 ``pin.computeJointJacobians`` (gaps, contact points), then ``pin.updateGeometryPlacements``; the
@@ -35,7 +31,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -48,6 +44,7 @@ from ..errors import CollisionNotFoundError, GeometryError, ParameterError
 from .broadphase import BoundingSpheres, use_broad_phase
 from .collision_model import CollisionModel
 from .gap import Gap, GapArrays
+from .pairs import Pair, object_names, self_pair_indices, unique_label
 from .patches import PatchPoint, read_contact, read_patch
 from .shapes import Shape
 
@@ -56,22 +53,9 @@ if TYPE_CHECKING:
 
 __all__ = ["GapModel", "Pair"]
 
-#: A pair of names: (collision object of the mechanism, obstacle or other collision object).
-Pair = tuple[str, str]
-
 #: Tolerance of coal's GJK and EPA in every query: 1e-6 (coal's default) leaves an error of that
 #: order in distances of polytope pairs; 1e-9 costs nothing measurable for primitives and hulls.
 GJK_TOLERANCE = 1e-9
-
-
-def _unique(label: str, taken: set[str]) -> str:
-    """``label``, or ``label_1``, ``label_2``, ... whichever is not taken."""
-    if label not in taken:
-        return label
-    k = 1
-    while f"{label}_{k}" in taken:
-        k += 1
-    return f"{label}_{k}"
 
 
 class GapModel:
@@ -129,7 +113,7 @@ class GapModel:
         taken = set(cm.names)
         self.obstacle_names: tuple[str, ...] = ()
         for o in obstacles:
-            name = _unique(o.label, taken)
+            name = unique_label(o.label, taken)
             taken.add(name)
             gm.addGeometryObject(pin.GeometryObject(name, 0, o.placement(), o.geometry()))
             self.obstacle_names += (name,)
@@ -138,7 +122,7 @@ class GapModel:
         # ---------------------------------------------------------------- pairs
         index_pairs: list[tuple[int, int]] = []
         if obstacles:
-            body_names = cm.moving if bodies is None else self._names(cm, bodies, "bodies")
+            body_names = cm.moving if bodies is None else object_names(cm, bodies, "bodies")
             if not body_names:
                 raise GeometryError(
                     f"{mech.name} has no moving collision object to pair with the obstacles"
@@ -147,7 +131,7 @@ class GapModel:
             index_pairs += [(cm.index(b), nb + k) for b in body_names for k in range(len(obstacles))]
         elif bodies is not None:
             raise ParameterError("bodies are paired with obstacles, and no obstacle was given")
-        index_pairs += self._self_pairs(cm, self_pairs, srdf)
+        index_pairs += self_pair_indices(cm, self_pairs, srdf)
         if not index_pairs:
             raise GeometryError("no pair to evaluate: give obstacles, or self_pairs")
         seen: set[tuple[int, int]] = set()
@@ -170,71 +154,6 @@ class GapModel:
         self._spheres = BoundingSpheres(gm, index_pairs)
         self._local = threading.local()
         self._zero_jacobian = np.zeros((3, model.nv))
-
-    # ------------------------------------------------------------ construction helpers
-    @staticmethod
-    def _names(cm: CollisionModel, names: Iterable[str], what: str) -> list[str]:
-        if isinstance(names, str):
-            raise ParameterError(f"{what} must be a sequence of collision object names, not one string "
-                                 f"(write [{names!r}])")
-        out = list(names)
-        for n in out:
-            cm.index(n)  # raises CollisionNotFoundError with close matches
-        return out
-
-    def _self_pairs(self, cm: CollisionModel, self_pairs: Sequence[Pair] | str | None,
-                    srdf: str | Path | None) -> list[tuple[int, int]]:
-        if self_pairs is None:
-            if srdf is not None:
-                raise ParameterError("srdf filters self_pairs='all'; give self_pairs='all' with it")
-            return []
-        model = cm.model
-        if isinstance(self_pairs, str):
-            if self_pairs != "all":
-                raise ParameterError(f"self_pairs must be 'all' or a sequence of (body, other) names, got {self_pairs!r}")
-            allowed = self._srdf_filter(cm, srdf)
-            out = []
-            objs = list(cm.geometry_model.geometryObjects)
-            for i in range(len(objs)):
-                for j in range(i + 1, len(objs)):
-                    ji, jj = int(objs[i].parentJoint), int(objs[j].parentJoint)
-                    if ji == jj or (ji == 0 and jj == 0):
-                        continue
-                    if model.parents[ji] == jj or model.parents[jj] == ji:
-                        continue
-                    if allowed is not None and (i, j) not in allowed:
-                        continue
-                    out.append((i, j))
-            return out
-        if srdf is not None:
-            raise ParameterError("srdf filters self_pairs='all' only; with explicit pairs, leave the unwanted ones out")
-        out = []
-        for k, p in enumerate(self_pairs):
-            if isinstance(p, str) or len(p) != 2:
-                raise ParameterError(f"self_pairs[{k}] must be a (body, other) pair of names, got {p!r}")
-            a, b = cm.index(p[0]), cm.index(p[1])
-            if a == b:
-                raise ParameterError(f"self_pairs[{k}] pairs {p[0]!r} with itself")
-            out.append((a, b))
-        return out
-
-    @staticmethod
-    def _srdf_filter(cm: CollisionModel, srdf: str | Path | None) -> set[tuple[int, int]] | None:
-        """The (i, j), i < j, pairs an SRDF leaves enabled, or None without SRDF."""
-        if srdf is None:
-            return None
-        path = Path(srdf)
-        if not path.is_file():
-            raise GeometryError(f"SRDF file {str(path)!r} not found")
-        gm = pin.GeometryModel()
-        for go in cm.geometry_model.geometryObjects:
-            gm.addGeometryObject(go)
-        gm.addAllCollisionPairs()
-        try:
-            pin.removeCollisionPairs(cm.model, gm, str(path))
-        except (RuntimeError, ValueError) as exc:
-            raise GeometryError(f"could not read the SRDF {str(path)!r}: {exc}") from exc
-        return {(min(cp.first, cp.second), max(cp.first, cp.second)) for cp in gm.collisionPairs}
 
     # ------------------------------------------------------------ per-thread workspace
     def _workspace(self) -> Any:

@@ -16,7 +16,8 @@ from numpy.typing import ArrayLike
 from ..errors import ParameterError
 from .cache import remember
 from .gap import Gap
-from .gap_model import GapModel, Pair
+from .gap_model import GapModel
+from .pairs import Pair
 from .shapes import Shape
 
 if TYPE_CHECKING:

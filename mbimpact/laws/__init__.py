@@ -6,8 +6,6 @@ All share :class:`ImpactLaw`'s pipeline (metric → contact impulse → result b
 from .base import ImpactLaw
 from .coulomb import CoulombLaw
 from .newton import NewtonLaw
-from .restitution import e_from_k, impact_duration, k_from_e, restitution_from
 from .rough import RoughLaw
 
-__all__ = ["ImpactLaw", "NewtonLaw", "RoughLaw", "CoulombLaw", "e_from_k", "k_from_e", "impact_duration",
-           "restitution_from"]
+__all__ = ["ImpactLaw", "NewtonLaw", "RoughLaw", "CoulombLaw"]

@@ -27,7 +27,7 @@ A law with a closed form may also override :meth:`ImpactLaw.apply_metric` (one i
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,7 +36,7 @@ from ..common.geometry import DEGENERATE
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array, check_in_range, quiet_overflow
 from ..errors import NoImpactError, NonFiniteError, NoSeparationWarning, RoughnessError, ShapeError, ignored, warn
-from ..metric.basis import local_basis
+from ..common.basis import local_basis
 from ..metric.delassus import KERNELS as METRIC_KERNELS
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
@@ -56,12 +56,9 @@ class ImpactLaw(ABC):
     ----------
     e : float
         Restitution (of the facets, for the rough law).
-    block_rows : int
-        Rows per block of a batch: keeps (rows × nodes × d) work arrays in cache.
     """
 
     e: float
-    block_rows: ClassVar[int] = 2048
 
     @property
     def dim(self) -> int | None:
@@ -163,18 +160,8 @@ class ImpactLaw(ABC):
         w_scale = float(np.trace(W_local))
         W_local = W_local / w_scale
         U_local = (U @ R) / speed[:, None]
-        if len(U) <= self.block_rows:
-            out = self.contact_impulses(W_local, U_local)
-            P, err, nodes, method = out.P, out.error, out.nodes, out.method
-        else:
-            P, err, nodes, methods = np.empty_like(U), np.empty(len(U)), 0, set()
-            for start in range(0, len(U), self.block_rows):
-                block = slice(start, start + self.block_rows)
-                out = self.contact_impulses(W_local, U_local[block])
-                P[block], err[block], nodes = out.P, out.error, max(nodes, out.nodes)
-                methods.add(out.method)
-            method = "+".join(sorted(methods))
-        P = P @ R.T
+        out = self.contact_impulses(W_local, U_local)
+        P, err, nodes, method = out.P @ R.T, out.error, out.nodes, out.method
         proj = metric.range_projector
         if proj is not None:
             # rank-deficient J: report the minimum-norm impulse, the only one that

@@ -12,7 +12,7 @@ the prepared state stays in the buffer and the law goes on in Python from it, wh
 with every level and their numpy forms name or treat the case.
 
 Kernel convention: :class:`mbimpact.laws.compiled.CompiledImpact`. Imported on first use
-(:data:`mbimpact.laws.rough.KERNELS`); the import compiles the explicit signatures, or loads them from
+(:data:`mbimpact.laws.cone_plan.KERNELS`); the import compiles the explicit signatures, or loads them from
 numba's disk cache.
 """
 

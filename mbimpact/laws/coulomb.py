@@ -49,15 +49,10 @@ between ~1e-300 and ~1e300 under- or overflows; a failure to integrate is an
 
 Where it runs
 -------------
-The phases run in :mod:`mbimpact.laws.coulomb_kernels`, compiled by numba and imported on
-first use (numba's import alone takes longer than ``import mbimpact`` may; see
-:func:`compile_kernels` for that one-off cost). Until then, a single impact whose impulse is one
-formula (frictionless, from normal incidence while sticking is possible, or a 3-D slip certain to
-stop during compression) is computed here in floats and never needs them. Once they are loaded,
-every single impact is one compiled call — the setup of W, the unit velocity and the impulse
-together — which costs less than those floats do in Python (the arithmetic is the same either way,
-to the last bit). A mechanism's compiled route (:meth:`CoulombLaw.single_impulse`) has numba
-imported already, and loads them at its first impact.
+The phases run in :mod:`mbimpact.laws.coulomb_kernels`, compiled by numba and loaded at the first
+Coulomb impact (numba's import alone takes longer than ``import mbimpact`` may; see
+:func:`compile_kernels` for that one-off cost). Every impact, single or batched, is then one compiled
+call: the setup of W, the unit velocity and the impulse together.
 """
 
 from __future__ import annotations
@@ -76,7 +71,7 @@ from ..errors import IntegrationError, ParameterError
 from ..results.impact import ContactImpulses
 from .base import ImpactLaw
 from .compiled import CompiledImpact
-from .restitution import restitution_from
+from ..facets.restitution import restitution_from
 
 __all__ = ["CoulombLaw", "KERNELS", "compile_kernels"]
 

@@ -11,12 +11,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..common.compiled import KernelModule
 from ..common.threads import single_blas_thread
 from ..common.validation import as_array, quiet_overflow
-from ..metric.basis import local_basis
+from ..common.basis import local_basis
 from ..metric.delassus import ContactMetric
 from ..results.impact import BatchResult, ContactImpulses, ImpactResult
 from .base import ImpactLaw
 from .compiled import CompiledImpact
-from .restitution import restitution_from
+from ..facets.restitution import restitution_from
 
 __all__ = ["NewtonLaw", "KERNELS"]
 

@@ -7,41 +7,28 @@ the flux weights (2.7) stay, only the impulse of one facet changes.
 
 from __future__ import annotations
 
-import functools
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..averaging import AUTO_ORDER, METHODS, Averaging, Graded, Ring
-from ..averaging.backends import level_plan
-from ..averaging.compiled import CONE, GRADED_CONE
-from ..averaging.compiled.codes import SKIP
 from ..averaging.integrand import AveragingSpec, Flux, check_flux, general_facets
-from ..averaging.poles import pole_plan
-from ..common.compiled import KernelModule
 from ..common.validation import as_count, as_scalar
 from ..errors import ParameterError, RoughnessError
 from ..facets.base import FacetLaw, method_label
 from ..facets.newton import NewtonFacet
+from ..facets.restitution import restitution_from
 from ..metric.delassus import ContactMetric
 from ..results.impact import ContactImpulses
 from ..roughness.base import Roughness
 from ..roughness.cone import Cone
 from .base import ImpactLaw
 from .compiled import CompiledImpact
+from .cone_plan import cone_impact
 from .repeat import repeated
-from .restitution import restitution_from
 
-__all__ = ["RoughLaw", "KERNELS"]
-
-#: The compiled single impact on a cone (:mod:`mbimpact.laws.compiled_cone`), loaded on first use.
-KERNELS = KernelModule("mbimpact.laws.compiled_cone")
-
-# levels of the compiled call's node tables (32, 64, 128 nodes for a cone: the anisotropic W of a foot
-# on the ground needs the third); a velocity that needs more goes on in Python with every level
-_CONE_LEVELS = 3
-
+__all__ = ["RoughLaw"]
 
 class RoughLaw(ImpactLaw):
     """Ivanov's constructive impact on a rough surface, (2.8).
@@ -342,7 +329,7 @@ class RoughLaw(ImpactLaw):
         spec = self.spec
         if (type(self) is RoughLaw and self.method is None and not self.repeat and type(spec.roughness) is Cone
                 and spec.roughness.alpha > 0.0 and spec.nodes is None and not general_facets(spec)):
-            compiled = _cone_impact(spec, self._auto_methods())
+            compiled = cone_impact(spec, self._auto_methods())
         self._cone = (key, compiled)
         return compiled
 
@@ -419,10 +406,7 @@ class RoughLaw(ImpactLaw):
 
 class _AtSpeeds(ImpactLaw):
     """A rough law with a speed-dependent facet law at given row speeds: the pipeline of
-    :meth:`ImpactLaw.impulses` with :meth:`RoughLaw.contact_impulses_at` as its core (one block:
-    the speeds are per row)."""
-
-    block_rows: ClassVar[int] = 2**62
+    :meth:`ImpactLaw.impulses` with :meth:`RoughLaw.contact_impulses_at` as its core."""
 
     def __init__(self, law: RoughLaw, speed: NDArray[np.float64]) -> None:
         self.law, self.speed, self.e = law, speed, law.e
@@ -490,41 +474,3 @@ def _method(method: object, spec: AveragingSpec) -> Averaging | None:
         raise ParameterError(f"the '{chosen.name}' averaging integrates Newton facets in closed form and cannot "
                              f"average {spec.facet!r}; methods for this facet law and measure: {', '.join(usable)}")
     return chosen
-
-
-
-
-def _cone_impact(spec: AveragingSpec, methods: tuple[Averaging, ...]) -> CompiledImpact | None:
-    """The compiled single impact on a cone that runs the compiled steps of ``methods`` (those of "auto", in
-    order), or None where one that "auto" may run for one velocity has none, or the levels fall short of the
-    first pair."""
-    steps = []
-    for method in methods:
-        step = method.cone_step(spec)
-        if step is None:
-            return None
-        if step != SKIP:
-            steps.append(step)
-    n, levels = level_plan(spec)
-    if levels < 2 or 2 * spec.roughness.initial_nodes > spec.max_nodes or not steps:
-        return None
-    return _cone_plan(spec, tuple(steps), n, min(levels, _CONE_LEVELS), Graded.peaked)
-
-
-@functools.lru_cache(maxsize=64)
-def _cone_plan(spec: AveragingSpec, steps: tuple[int, ...], n: int, levels: int, peaked: float) -> CompiledImpact:
-    graded, cone = GRADED_CONE.get(), CONE.get()
-    pole_n, pole_levels = pole_plan(spec)
-    codes = np.array(steps, dtype=np.int64)
-    codes.flags.writeable = False
-    cone_ = spec.roughness
-    assert isinstance(cone_, Cone)
-    args = (cone_.alpha, codes, graded.rule_table(n, levels), levels, peaked, cone.rule_table(n, levels),
-            levels, cone.rule_table(pole_n, pole_levels), pole_levels, spec.flux == "configuration", spec.e, spec.rtol)
-    names = tuple(f"{name}[compiled]" if name != "poles" else name
-                  for name in (_STEP_NAMES[step] for step in steps))
-    return CompiledImpact(KERNELS, "cone_impact", "cone_batch", args, names)
-
-
-# the rules of the compiled steps (mbimpact.averaging.compiled.codes), as results name them
-_STEP_NAMES = {0: "poles", 1: "graded", 2: "adaptive"}

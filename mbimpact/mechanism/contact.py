@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..common.validation import as_array
 from ..errors import ParameterError, ShapeError
-from ..metric.basis import check_dimension, local_basis
+from ..common.basis import check_dimension, local_basis
 from .mechanism import Mechanism
 
 __all__ = ["Contact", "PointContact", "unit_vector"]

@@ -8,9 +8,7 @@ collision geometry is loaded where a contact needs it.
 
 from __future__ import annotations
 
-import itertools
 import math
-import os
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,85 +23,13 @@ from ..common.geometry import offset_point_jacobian
 from ..common.validation import FLOAT64, as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from . import front
-from .robots import close_matches, model_path, robot_urdf
+from .mass_factor import MassFactor, new_token, pivots_valid
+from .robots import close_matches, file_path, model_path, robot_urdf
 
 if TYPE_CHECKING:  # the geometry layer is imported on use: frame contacts never load it
     from ..geometry.collision_model import CollisionModel
 
 __all__ = ["Mechanism", "MassFactor"]
-
-# Every factorisation gets a token: a factor knows whether its thread's workspace still holds it.
-_TOKENS = itertools.count(1)
-
-
-def _restored_factor(mechanism: Mechanism, q: NDArray[np.float64], valid: bool) -> MassFactor:
-    """An unpickled :class:`MassFactor`, with a token of this process (its first solve re-factorises)."""
-    return MassFactor(mechanism, q, next(_TOKENS), valid)
-
-
-def _pivots_valid(data: Any) -> bool:
-    """Every pivot of the workspace's factor finite and > 0 (A positive definite), in floats: min and
-    max may step over a NaN, their sum never does."""
-    D = data.D.tolist()
-    return min(D) > 0.0 and max(D) < math.inf and not math.isnan(sum(D))
-
-
-@dataclass(frozen=True, eq=False)
-class MassFactor:
-    """The sparse Cholesky factor of A(q) held in a thread's Pinocchio workspace.
-
-    :meth:`solve` re-factorises at ``q`` first if the workspace has been used for
-    another configuration since (or the factor is used from another thread).
-
-    Attributes
-    ----------
-    valid : bool
-        A(q) is positive definite (every pivot of the factor finite and > 0).
-    """
-
-    mechanism: Mechanism
-    q: NDArray[np.float64]
-    token: int
-    valid: bool
-
-    def __init__(self, mechanism: Mechanism, q: NDArray[np.float64], token: int, valid: bool) -> None:
-        # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
-        self.__dict__.update(mechanism=mechanism, q=q, token=token, valid=valid)
-
-    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
-        # a new token when unpickled (in the loading process): its counter may have issued this one already
-        return (_restored_factor, (self.mechanism, self.q, self.valid))
-
-    def _data(self) -> Any:
-        """This thread's workspace, holding this factor (re-factorised at ``q`` if it was reused)."""
-        mech = self.mechanism
-        local = mech.workspace()
-        if getattr(local, "token", None) != self.token:
-            pin.crba(mech.model, local.data, self.q)
-            pin.cholesky.decompose(mech.model, local.data)
-            local.token = self.token
-        return local.data
-
-    def arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The factor A(q) = U D Uᵀ: U (nv, nv) unit upper triangular and the pivots D (nv,).
-
-        Views of the workspace's memory, valid until the next call on this mechanism in this
-        thread: read them at once (:func:`mbimpact.metric.kernels.delassus` does).
-        """
-        data = self._data()
-        return data.U, data.D
-
-    def solve(self, b: NDArray[np.float64]) -> NDArray[np.float64]:
-        """A⁻¹ b for b of shape (nv,) or (nv, k)."""
-        model, data, solve = self.mechanism.model, self._data(), pin.cholesky.solve
-        if b.ndim == 1:
-            return solve(model, data, b)
-        if not b.shape[1]:
-            return np.zeros(b.shape)
-        # one solve per column, assembled in one copy and returned as its transposed view (Fortran order:
-        # every consumer multiplies it, which BLAS does in either order, and a C copy costs more than that)
-        return np.array([solve(model, data, col) for col in b.T]).T
-
 
 @dataclass(frozen=True, eq=False)
 class Mechanism:
@@ -246,7 +172,7 @@ class Mechanism:
         """Validate ``floating`` and ``path``, then build the model, naming parse errors."""
         if not isinstance(floating, bool):
             raise ParameterError(f"floating must be True or False, got {floating!r}")
-        path = _file_path(kind, path)
+        path = file_path(kind, path)
         if not path.is_file():
             raise RobotNotFoundError(f"{kind} file {str(path)!r} not found")
         try:
@@ -357,8 +283,8 @@ class Mechanism:
         model, data = self.model, local.data
         A = pin.crba(model, data, q).copy()
         pin.cholesky.decompose(model, data)
-        local.token = token = next(_TOKENS)
-        return A, MassFactor(self, q.copy(), token, _pivots_valid(data))
+        local.token = token = new_token()
+        return A, MassFactor(self, q.copy(), token, pivots_valid(data))
 
     def factor_arrays(self, q: NDArray[np.float64]
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -386,7 +312,7 @@ class Mechanism:
         if not A.flags.owndata:  # Pinocchio 4 hands back its own copy; a view of the workspace must be copied
             A = A.copy()
         pin.cholesky.decompose(self.model, data)
-        local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
+        local.token = new_token()  # the workspace holds a new factor: the others must re-factorise
         return A, local.U, local.D
 
     def front_end(self) -> object | None:
@@ -403,7 +329,7 @@ class Mechanism:
         bound = getattr(local, "bound", None)
         if bound is None:
             bound = local.bound = native.bind(self.model, self.workspace().data)
-        local.token = next(_TOKENS)
+        local.token = new_token()
         return bound
 
     def front_stage_one(self, q: Any, v: Any, fid: int, point: NDArray[np.float64]
@@ -482,7 +408,7 @@ class Mechanism:
             A[i] = crba(model, data, q)
             decompose(model, data)
             U[i], D[i] = factor_U, factor_D
-        local.token = next(_TOKENS)  # the workspace holds a new factor: the others must re-factorise
+        local.token = new_token()  # the workspace holds a new factor: the others must re-factorise
 
     def inverse_mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """A(q)⁻¹ from ``pin.computeMinverse`` (ABA-based, no factorisation), shape (nv, nv)."""
@@ -557,16 +483,6 @@ class Mechanism:
     def collision_names(self) -> list[str]:
         """Names of the mechanism's collision objects (loads them, see :meth:`collision_model`)."""
         return self.collision_model().names
-
-
-def _file_path(kind: str, path: object) -> Path:
-    """``path`` as a :class:`~pathlib.Path` (a :class:`RobotNotFoundError` if it is not a path)."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path), got {type(path).__name__}")
-    try:
-        return Path(path)
-    except TypeError as exc:  # an os.PathLike that does not return a str
-        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path): {exc}") from None
 
 
 def _offset(point: ArrayLike | None) -> NDArray[np.float64] | None:

@@ -7,11 +7,12 @@ loader, so the files are located here from the installed distribution.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ..errors import RobotNotFoundError
 
-__all__ = ["ROBOTS", "robot_names", "robot_urdf", "robots_dir", "robots_share_dir", "models_dir", "model_path",
+__all__ = ["file_path", "ROBOTS", "robot_names", "robot_urdf", "robots_dir", "robots_share_dir", "models_dir", "model_path",
            "model_names", "close_matches"]
 
 #: name -> (URDF path below the robots folder, has a floating base)
@@ -160,3 +161,13 @@ def model_path(name: str) -> Path:
     if not path.is_file():
         raise _unknown("model", name, model_names())
     return path
+
+
+def file_path(kind: str, path: object) -> Path:
+    """``path`` as a :class:`~pathlib.Path` (a :class:`RobotNotFoundError` if it is not a path)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path), got {type(path).__name__}")
+    try:
+        return Path(path)
+    except TypeError as exc:  # an os.PathLike that does not return a str
+        raise RobotNotFoundError(f"a {kind} file is given by a path (str or pathlib.Path): {exc}") from None

@@ -8,7 +8,8 @@ the impact laws need is therefore one factorisation of A, ``A⁻¹ Jᵀ`` and ``
 mechanism, :meth:`ContactMetric.from_mechanism` computes the last two with the metric, in one
 compiled call on Pinocchio's factor (:mod:`mbimpact.metric.kernels`); on arrays they are
 computed on first use. (A single spatial impact of a mechanism builds no metric object: its
-compiled route works on the factor directly, :meth:`mbimpact.ImpactLaw.apply_mechanism`.)
+compiled route works on the factor directly, :meth:`mbimpact.ImpactLaw.apply_metric` on a
+:class:`FactoredMetric`.)
 """
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ integrands smooth again, so the graded rules converge geometrically whatever ε.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +22,7 @@ from ..metric.delassus import eigen_ratio
 from .rules import gauss_legendre
 
 __all__ = [
-    "ring_minima", "minima_sensitivity", "ring_width_bound", "ring_minima_many", "graded_azimuth_rule",
+    "ring_minima", "minima_sensitivity", "polish_minimum", "minimum_sensitivity", "ring_width_bound", "ring_minima_many", "graded_azimuth_rule",
     "graded_tilt_rule", "peak_tilts", "peak_width_bound",
 ]
 
@@ -58,22 +59,10 @@ def ring_minima(alpha: float, W: NDArray[np.float64]) -> tuple[NDArray[np.float6
     widths: list[float] = []
     # a trigonometric polynomial of degree 2 has at most two local minima: Newton on q' = 0
     # from each grid minimum, in floats (this runs once per impact when W is ill-conditioned)
-    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
     for i in np.flatnonzero((q <= np.roll(q, 1)) & (q < np.roll(q, -1))).tolist():
-        phi = float(grid[i])
-        for _ in range(50):
-            c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
-            dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
-            d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
-            step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
-            phi -= step
-            if abs(step) <= max(1e-15, noise / d2q if d2q > 0 else 0.0):
-                break
-        c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
-        qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
-        d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
-        found.append(phi % (2 * math.pi))
-        widths.append(math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300)))
+        phi, width = polish_minimum(float(grid[i]), q0, a1, b1, a2, b2)
+        found.append(phi)
+        widths.append(width)
     phi_arr, eps = np.array(found), np.array(widths)
     return phi_arr, eps
 
@@ -90,14 +79,51 @@ def minima_sensitivity(alpha: float, W: NDArray[np.float64], phi: NDArray[np.flo
     of W's own entries moves the exact integral by as much.
     """
     s, c = math.sin(alpha), math.cos(alpha)
+    w = np.asarray(W, dtype=float).tolist()
     worst = 0.0
     for angle in np.asarray(phi, dtype=float).tolist():
-        m = np.array([s * math.cos(angle), s * math.sin(angle), c])
-        qmin = float(m @ W @ m)
-        if not qmin > 0.0:
-            return math.inf
-        worst = max(worst, power * EPS * float(np.abs(m) @ np.abs(W) @ np.abs(m)) / qmin)
+        worst = max(worst, minimum_sensitivity(s, c, w, angle, power))
     return worst
+
+
+def polish_minimum(phi: float, q0: float, a1: float, b1: float, a2: float, b2: float) -> tuple[float, float]:
+    """A local minimum of q(φ) = q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ by Newton's method on
+    q' = 0 from ``phi`` (a minimum of a grid that brackets it), and the width ε = sqrt(2 q / q'') of the
+    peak that 1/q makes there: (φ in [0, 2π), ε).
+
+    Newton stops once its step is within the rounding of q'/q'' (``_NEWTON_ROUNDING`` ε of q's terms),
+    the accuracy a minimum can be found to in floats, or after 50 steps. Scalar arithmetic only: the
+    compiled rules compile this function as it stands.
+    """
+    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
+    for _ in range(50):
+        c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+        dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
+        d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+        step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
+        phi -= step
+        if abs(step) <= max(1e-15, noise / d2q if d2q > 0 else 0.0):
+            break
+    c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
+    qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
+    d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
+    return phi % (2 * math.pi), math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300))
+
+
+def minimum_sensitivity(s: float, c: float, w: Any, angle: float, power: float) -> float:
+    """:func:`minima_sensitivity` at one azimuth, for ``w`` indexed as ``w[i][j]``: power · ε ·
+    Σ |w_ik| |m_i| |m_k| / q(m) with m = (s cos φ, s sin φ, c), inf where q(m) ≤ 0. Scalar arithmetic
+    only: the compiled rules compile this function as it stands."""
+    p0, p1 = s * math.cos(angle), s * math.sin(angle)
+    qmin = (p0 * (w[0][0] * p0 + w[0][1] * p1 + w[0][2] * c) + p1 * (w[1][0] * p0 + w[1][1] * p1 + w[1][2] * c)
+            + c * (w[2][0] * p0 + w[2][1] * p1 + w[2][2] * c))
+    if not qmin > 0.0:
+        return math.inf
+    a0, a1 = abs(p0), abs(p1)
+    size = (a0 * (abs(w[0][0]) * a0 + abs(w[0][1]) * a1 + abs(w[0][2]) * c)
+            + a1 * (abs(w[1][0]) * a0 + abs(w[1][1]) * a1 + abs(w[1][2]) * c)
+            + c * (abs(w[2][0]) * a0 + abs(w[2][1]) * a1 + abs(w[2][2]) * c))
+    return power * EPS * size / qmin
 
 
 def ring_width_bound(alpha: float, W: NDArray[np.float64]) -> float:

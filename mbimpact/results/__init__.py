@@ -1,4 +1,4 @@
-"""Stage 6 of the pipeline: results that check themselves (κ, μ, energy, separation, method)."""
+"""Results that check themselves (κ, μ, energy, separation, method): the value objects every stage shares."""
 
 from .impact import BatchResult, ContactImpulses, ImpactResult
 from .quantities import SEPARATION_RTOL, energy_loss, friction_ratio, restitution, separates

@@ -1,4 +1,4 @@
-"""The outcome of an impact, able to check itself (stage 6 of the pipeline: I by (1.1))."""
+"""The outcome of an impact, able to check itself: I = A Δv = Jᵀ P by (1.1), shared by every stage."""
 
 from __future__ import annotations
 
@@ -37,10 +37,6 @@ class ContactImpulses:
     error: NDArray[np.float64]
     nodes: int = 1
     method: str = "closed-form"
-
-    def __init__(self, P: NDArray[np.float64], error: NDArray[np.float64], nodes: int = 1,
-                 method: str = "closed-form") -> None:  # as ImpactResult.__init__: without object.__setattr__
-        self.__dict__.update(P=P, error=error, nodes=nodes, method=method)
 
 
 # where ImpactResult.from_buffer's vectors lie: (a, b, length) starts one at a·n + b·d, n or d long
@@ -95,17 +91,9 @@ class ImpactResult:
     nodes: int = 1
     method: str = "closed-form"
 
-    # Written out rather than generated: a frozen dataclass's __init__ sets each field through
-    # object.__setattr__, which costs a single impact as much as its physics. Same signature, same
-    # object; the arrays of the impact are frozen here, once.
-    def __init__(self, v_minus: NDArray[np.float64], v_plus: NDArray[np.float64], dv: NDArray[np.float64],
-                 P: NDArray[np.float64], u_minus: NDArray[np.float64], u_plus: NDArray[np.float64],
-                 n0: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], law: Any,
-                 error_estimate: float = 0.0, nodes: int = 1, method: str = "closed-form") -> None:
-        for a in (v_minus, v_plus, dv, P, u_minus, u_plus, n0):
-            a.setflags(write=False)
-        self.__dict__.update(v_minus=v_minus, v_plus=v_plus, dv=dv, P=P, u_minus=u_minus, u_plus=u_plus, n0=n0, A=A,
-                             J=J, law=law, error_estimate=error_estimate, nodes=nodes, method=method)
+    def __post_init__(self) -> None:
+        for a in (self.v_minus, self.v_plus, self.dv, self.P, self.u_minus, self.u_plus, self.n0):
+            a.setflags(write=False)  # frozen to the values too: a result checks itself against them
 
     @classmethod
     def from_buffer(cls, buffer: NDArray[np.float64], A: NDArray[np.float64], J: NDArray[np.float64], law: Any,

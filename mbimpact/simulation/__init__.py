@@ -7,8 +7,10 @@ in :mod:`.simulator`. :mod:`.section4` is the paper's application: a point bounc
 vibrating rough surface of revolution.
 """
 
-from .scene import PD, Scene, SceneCollision, SceneContact, scene_names, scene_path
-from .schema import load_scene, reference
+from .scene import PD, Scene, scene_names, scene_path
+from .scene_contacts import SceneCollision, SceneContact
+from .scene_file import load_scene
+from .schema import reference
 from .simulator import simulate
 from .surfaces import Surface
 from .sweep import sweep

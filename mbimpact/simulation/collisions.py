@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ..geometry.gap import Gap, contact_frame
 from ..geometry.gap_model import GapModel
-from .scene import SceneCollision
+from .scene_contacts import SceneCollision
 from .state import ContactState
 
 __all__ = ["CollisionKinematics"]

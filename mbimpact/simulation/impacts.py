@@ -27,7 +27,7 @@ from ..laws.newton import NewtonLaw
 from ..laws.rough import RoughLaw
 from .multi import ImpactSolver, Impulses, choose_rule
 from .run import RunState, Stop
-from .scene import SceneCollision, SceneContact
+from .scene_contacts import SceneCollision, SceneContact
 from .state import ContactState, slowest
 from .trajectory import ContactEvent
 

@@ -15,7 +15,8 @@ from numpy.typing import NDArray
 
 from .collisions import CollisionKinematics
 from .points import PointKinematics
-from .scene import Scene, SceneCollision, SceneContact
+from .scene import Scene
+from .scene_contacts import SceneCollision, SceneContact
 from .state import ContactState
 
 __all__ = ["ContactKinematics", "ContactState"]

@@ -45,7 +45,7 @@ from ..errors import SceneError
 from ..laws.base import ImpactLaw
 from ..laws.coulomb import CoulombLaw
 from ..laws.rough import RoughLaw
-from ..metric.basis import local_basis
+from ..common.basis import local_basis
 from ..metric.delassus import ContactMetric
 from .cones import ConeSolver
 from .state import ContactState

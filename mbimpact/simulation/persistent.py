@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from .impacts import Impacts
 from .run import RunState, Stop
-from .scene import SceneContact
+from .scene_contacts import SceneContact
 from .trajectory import ContactEvent
 
 __all__ = ["Persistent"]

@@ -14,8 +14,8 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from ..common.geometry import offset_point_jacobian
-from ..metric.basis import local_basis
-from .scene import SceneContact
+from ..common.basis import local_basis
+from .scene_contacts import SceneContact
 from .state import ContactState
 
 __all__ = ["PointKinematics"]

@@ -28,7 +28,8 @@ from ..laws.rough import RoughLaw
 from ..roughness import Smooth
 from .cones import ConeSolver
 from .kinematics import ContactKinematics
-from .scene import Scene, SceneContact
+from .scene import Scene
+from .scene_contacts import SceneContact
 from .trajectory import ContactEvent
 
 __all__ = ["BAND_MAX", "RunState", "Stop", "scene_law", "Progress"]

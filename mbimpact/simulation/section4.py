@@ -170,7 +170,8 @@ def orbit_scene(roughness: Roughness, e: float, m: int, inv_rho: float, periods:
     with a horizontal offset ``x0`` (m); ``inv_rho`` is ρ⁻¹ in units of ω²/g (< 0: a dome, 0: a plane)."""
     from ..laws.rough import RoughLaw
     from ..mechanism.mechanism import Mechanism
-    from .scene import Scene, SceneContact
+    from .scene import Scene
+    from .scene_contacts import SceneContact
     from .surfaces import Surface
 
     st = stability(roughness, e, m)

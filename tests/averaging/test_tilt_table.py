@@ -106,11 +106,11 @@ def test_no_table_for_a_nearly_singular_w():
     assert tilt_table(mbi.GaussianSlopes(0.3), upright_ur5_delassus(), "configuration") is None
 
 
-def test_a_small_last_block_reuses_the_table_of_its_batch():
+def test_a_small_last_block_reuses_the_table_of_its_batch(monkeypatch):
     rng = np.random.default_rng(6)
     rough = mbi.GaussianSlopes(0.25)
-    law = mbi.RoughLaw(rough, 0.5)
-    law.block_rows = 1100  # 1150 rows: a block of 1100, then one of 50
+    law = mbi.RoughLaw(rough, 0.5, flux="configuration")  # (the physical flux may take the Laplace reduction)
+    monkeypatch.setattr(mbi.averaging.integrand, "BLOCK_ROWS", 1100)  # 1150 rows: a block of 1100, then one of 50
     res = law.apply_batch(spd(rng, 3, 5.0), I3, unit_velocities(rng, 1150), [0, 0, 1])  # W = A⁻¹
     assert res.nodes < 200 and np.all(res.error_estimate < 1e-12)  # no product rule anywhere
     assert res.method == "tilt-table"
@@ -126,3 +126,26 @@ def test_tilt_rule_follows_an_onset_just_below_the_support(gap):
     tilt, dtilt = tilt_segments(lo, hi, split, 16)
     exact = ((hi - split[0]) ** 2.5 - gap**2.5) / 2.5
     assert dtilt[0] @ (tilt[0] - split[0]) ** 1.5 == pytest.approx(exact, rel=1e-14)
+
+
+def test_a_table_is_built_where_it_pays_against_the_laplace_reduction(monkeypatch):
+    """Gaussian slopes with the physical flux: a batch on a strongly anisotropic W (a table of ~1e7 kernel
+    samples) takes the Laplace reduction and builds no table; where the velocities at a W cost the reduction
+    more than the table would, "auto" builds it, and the two agree to rounding of rtol."""
+    from mbimpact.averaging import tilt_table as module
+
+    rng = np.random.default_rng(4)
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    hard = Q @ np.diag([0.2, 40.0, 200.0]) @ Q.T / 240.2
+    U = unit_velocities(rng, 2000, 1.4)
+    law = mbi.RoughLaw(mbi.GaussianSlopes(0.3), 0.5)
+    assert law.contact_impulses(hard, U).method == "laplace"
+    assert tilt_table(law.roughness, hard, "physical", build=False) is None
+    mild = spd(rng, 3, 3.0)
+    mild /= np.trace(mild)
+    reduction = law.contact_impulses(mild, U)
+    assert reduction.method == "laplace"  # 2000 rows: the table does not pay
+    monkeypatch.setattr(module, "_LAPLACE_ROW", 1e4)  # a reduction that costs as much as 1e4 samples a row
+    table = law.contact_impulses(mild, U)
+    assert table.method == "tilt-table" and tilt_table(law.roughness, mild, "physical", build=False) is not None
+    assert relative_du(table.P, reduction.P, mild).max() < 1e-11

@@ -4,7 +4,7 @@ dispatch is the same machine code, and it is forgotten with the module."""
 import numpy as np
 
 from mbimpact.common.compiled import KernelModule
-from mbimpact.laws.rough import KERNELS as ROUGH_KERNELS
+from mbimpact.laws.cone_plan import KERNELS as ROUGH_KERNELS
 from mbimpact.metric.delassus import KERNELS as METRIC_KERNELS
 
 from tests.helpers import mechanism

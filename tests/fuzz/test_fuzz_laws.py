@@ -137,7 +137,7 @@ def test_the_error_estimate_bounds_the_true_error_on_a_cone(seed, alpha, e):
             except mbi.ImpactError:
                 return
             # the reference: the same family of rule with many more nodes (graded if the law graded)
-            graded = out.method in ("graded", "graded-pass")
+            graded = out.method in ("graded", "graded[compiled]")
             reference = {"method": "graded", "nodes": 256} if graded else {"method": "fixed", "nodes": 4096}
             ref = mbi.RoughLaw(mbi.Cone(alpha), e, **reference).contact_impulses(W, u[None])
     true = np.linalg.norm((out.P[0] - ref.P[0]) @ W) / np.linalg.norm(ref.P[0] @ W)

@@ -1,4 +1,4 @@
-"""The compiled route of a mechanism's spatial impact (ImpactLaw.apply_mechanism): the metric and the
+"""The compiled route of a mechanism's spatial impact (ImpactLaw.apply_metric on a FactoredMetric): the metric and the
 state from Pinocchio's factor of A(q) in one call, the law, the outcome (1.1) in another, and the
 result made of their buffer (ImpactResult.from_buffer).
 

@@ -138,7 +138,8 @@ def kernel_results() -> list[object]:
 def test_the_compiled_phases_equal_the_same_source_interpreted(tmp_path):
     """The kernels run by the interpreter (``NUMBA_DISABLE_JIT=1``) give the compiled results to rounding:
     closed forms to a few ε, integrated slips within their tolerance (a step accepted or an event located
-    a rounding apart), with the same errors named and the same error estimates."""
+    a rounding apart), with the same errors named, the same rows integrated, and error estimates
+    to 10⁻³ of each other."""
     script = textwrap.dedent(f"""
         import pickle, sys
         sys.path.insert(0, {str(ROOT)!r})
@@ -157,8 +158,12 @@ def test_the_compiled_phases_equal_the_same_source_interpreted(tmp_path):
         if isinstance(ours, str):
             assert ours == theirs
             continue
-        (P, err, nodes), (P_i, err_i, _) = ours, theirs
-        np.testing.assert_array_equal(err, err_i)
+        (P, err, nodes), (P_i, err_i, nodes_i) = ours, theirs
+        # the same rows integrated; an estimate and a step count move only if a step's acceptance sits a
+        # rounding from its threshold
+        np.testing.assert_array_equal(err > 0, err_i > 0)
+        np.testing.assert_allclose(err, err_i, rtol=1e-3, atol=0)
+        assert np.all(np.abs(np.asarray(nodes) - np.asarray(nodes_i)) <= 1)
         tol = np.where(err > 0, 10 * err, 64 * np.finfo(float).eps)  # integrated rows: their tolerance
         scale = np.linalg.norm(P @ W, axis=1)
         assert np.all(np.linalg.norm((P - P_i) @ W, axis=1) <= tol * scale + 1e-300)

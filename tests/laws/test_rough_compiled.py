@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import mbimpact as mbi
-from mbimpact.laws.rough import KERNELS
+from mbimpact.laws.cone_plan import KERNELS
 
 EPS = np.finfo(float).eps
 

@@ -2,8 +2,7 @@
 
 A single impact skips the array machinery of :meth:`ImpactLaw.impulses` (checks, scalings and the
 outcome in two compiled calls); for the contact velocity it reports, its impulse must be the batch
-pipeline's to the last bit in a world-aligned contact frame (the rotations are exact there) and to
-rounding in a tilted one, and its result the same checked object.
+pipeline's to rounding, with the same rule and nodes, and its result the same checked object.
 """
 
 from __future__ import annotations
@@ -59,10 +58,10 @@ def test_single_impact_equals_the_batch_pipeline(law, normal, name, rng):
         if isinstance(law, mbi.NewtonLaw):  # Newton's own single path solves along one direction only
             np.testing.assert_allclose(r.P, out.P[0], rtol=1e-12, atol=1e-12 * np.abs(out.P).max())
         else:
-            if normal == (0.0, 0.0, 1.0):
-                assert np.array_equal(r.P, out.P[0]) and r.error_estimate == float(out.error[0])
-            else:  # Rᵀ W R and R P summed in another order than numpy's
-                np.testing.assert_allclose(r.P, out.P[0], rtol=0, atol=1e-14 * np.abs(out.P).max())
+            # the single route's W, its rotation and the law's sums are compiled apart from the batch
+            # pipeline's: the same arithmetic, which a compiler may order otherwise
+            np.testing.assert_allclose(r.P, out.P[0], rtol=0, atol=1e-13 * np.abs(out.P).max())
+            assert abs(r.error_estimate - float(out.error[0])) <= 1e-13
             assert r.nodes == out.nodes and r.method == out.method
         assert np.array_equal(r.v_minus, v)
         for a in (r.v_minus, r.v_plus, r.dv, r.P, r.u_minus, r.u_plus, r.n0):

@@ -57,6 +57,13 @@ def assert_same(got, want, exact: bool = False):
             assert a == b, name
 
 
+def assert_close(got, want):
+    """Two builds of the same arithmetic (the front end's C++ and Pinocchio's bindings or the kernels):
+    equal to rounding, scaled to the largest entry."""
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * max(np.abs(want).max(), 1e-300))
+
+
 def test_this_install_built_it():
     """CI and a fresh `pip install` compile the front end; off only where the environment says so."""
     if os.environ.get("MBIMPACT_NATIVE") == "0":
@@ -216,7 +223,7 @@ def test_its_calls_check_their_own_arguments():
     A, J = np.empty((n, n)), np.empty((3, n))
     assert native.stage_one(bound, q, v, 10 ** 6, np.zeros(3), A, J) == native.CHECKS  # no such frame
     assert native.stage_one(bound, q, v, ur5.frame_id("tool0"), np.zeros(3), A, J) == native.DONE
-    np.testing.assert_array_equal(A, ur5.mass_matrix(q))
+    assert_close(A, ur5.mass_matrix(q))
 
 
 def test_results_it_packs_pickle_and_read_back():
@@ -229,8 +236,8 @@ def test_results_it_packs_pickle_and_read_back():
     res = mbi.impact(mech, q, -J[2] / (J[2] @ J[2]), mbi.PointContact("left_sole_link"), mbi.NewtonLaw(0.3))
     back = pickle.loads(pickle.dumps(res))
     assert_same(back, res, exact=True)
-    np.testing.assert_array_equal(res.A, mech.mass_matrix(q))
-    np.testing.assert_array_equal(res.J, J)
+    assert_close(res.A, mech.mass_matrix(q))
+    assert_close(res.J, J)
     assert res.kappa == pytest.approx(0.3, abs=1e-9)
 
 
@@ -284,11 +291,11 @@ def test_batches_gathered_by_it_equal_single_impacts(law):
             python = mbi.impact_batch(mech, Q, V, contact, law)
         for i in range(0, 24, 5):
             single = mbi.impact(mech, Q[i], V[i], contact, law)
-            np.testing.assert_array_equal(batch.V_plus[i], single.v_plus)
-            np.testing.assert_array_equal(batch.J[i], single.J)
+            assert_close(batch.V_plus[i], single.v_plus)
+            assert_close(batch.J[i], single.J)
     scale = np.abs(V).max()
     np.testing.assert_allclose(batch.V_plus, python.V_plus, rtol=0, atol=1e-11 * scale)
-    np.testing.assert_array_equal(batch.A, python.A)
+    assert_close(batch.A, python.A)
     Q[7, 3] = 2.0  # the base quaternion, not normalised
     with pytest.raises(mbi.ParameterError, match="not normalised"):
         mbi.impact_batch(mech, Q, V, contact, law)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import re
 from dataclasses import asdict
 from pathlib import Path
 
@@ -121,10 +122,11 @@ def plot(rows: list[BenchRow], path: Path) -> Path:
             title="Accuracy vs time: cone α = 0.4 (all β, all cases); x: Gaussian slopes, near-singular UR5")
     if acc:  # a run of other parts only has nothing to label (matplotlib would warn)
         ax1.legend(fontsize=8)
-    bat = [r for r in rows if r.part == "batch"]
-    for name, param in dict.fromkeys((r.method, r.param) for r in bat):
-        series = sorted((int(r.case.split("n=")[1].rstrip(")")), r.seconds * 1e6)
-                        for r in bat if (r.method, r.param) == (name, param))
+    # the batch rows over mechanism size name nv as "robot (n=6)"; other batch rows are not on this axis
+    sized = [(r, re.search(r"\(n=(\d+)\)", r.case)) for r in rows if r.part == "batch"]
+    bat = [(r, int(m.group(1))) for r, m in sized if m]
+    for name, param in dict.fromkeys((r.method, r.param) for r, _ in bat):
+        series = sorted((nv, r.seconds * 1e6) for r, nv in bat if (r.method, r.param) == (name, param))
         ax2.plot(*zip(*series), marker="o", label=name + (f" {param:g}" if param else ""))
     ax2.set(xscale="log", yscale="log", xlabel="nv", ylabel="µs per impact (batch)", title="Batch cost vs mechanism size")
     if bat:

@@ -341,6 +341,9 @@ def goals(rows: list[BenchRow]) -> list[Goal]:
     for r in find("batch", "ur5", "RoughLaw(Cone), adaptive"):
         out.append(Goal("ur5: apply_batch, RoughLaw(Cone), one configuration", 1e6, r.ratio, "impacts/s",
                         below=False))
+    for r in find("batch", "anisotropic W", "RoughLaw(GaussianSlopes(0.3)), first call"):
+        out.append(Goal(f"{r.case}: apply_batch, RoughLaw(GaussianSlopes(0.3)), first call", 1e5, r.ratio,
+                        "impacts/s", below=False))
     for r in rows:
         if r.part == "threads":
             target = 1e7 if r.method.endswith("NewtonLaw") else 1e6

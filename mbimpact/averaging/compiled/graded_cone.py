@@ -29,16 +29,15 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ...common.geometry import ring_coefficients
+from ...quadrature import graded
 from ...quadrature.rules import gauss_legendre
 from .half_pieces import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
-from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NOT_FACING, NOT_PEAKED, NOT_SETTLED, SETTLED, compensated_add,
+from .primitives import (CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, NOT_SETTLED, SETTLED, compensated_add,
                          level_decision, rounding_floor)
 
 __all__ = ["rule_table", "ring_form", "ring_minima_into", "minima_sensitivity", "ring_peaks", "graded_cone",
            "graded_levels", "jit_seconds"]
-
-# Newton on q' = 0 stops at this many ε of the rounding of q'/q'' (ring_minima's _NEWTON_ROUNDING)
-_NEWTON_ROUNDING = 16.0
 
 # the widths below which :meth:`mbimpact.Cone.graded_rule` gives up: q_min / q_max ≲ 1e-14, facets the
 # mechanism cannot push, around which the flux weight is not integrable (grading cannot help)
@@ -95,13 +94,11 @@ _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.
                                        types.float64[::1])
 
 
-@njit(cache=True, error_model="numpy")
-def ring_form(s: float, c: float, W: NDArray[np.float64]
-              ) -> tuple[float, float, float, float, float]:  # pragma: no cover — compiled
-    """q(φ) = q₀ + a₁ cos φ + b₁ sin φ + a₂ cos 2φ + b₂ sin 2φ on the ring (s, c) = (sin α, cos α):
-    :func:`mbimpact.common.geometry.ring_quadratic_form`, in its arithmetic."""
-    return (0.5 * s * s * (W[0, 0] + W[1, 1]) + c * c * W[2, 2], 2 * s * c * W[0, 2], 2 * s * c * W[1, 2],
-            0.5 * s * s * (W[0, 0] - W[1, 1]), s * s * W[0, 1])
+#: :func:`mbimpact.common.geometry.ring_coefficients`, :func:`mbimpact.quadrature.graded.polish_minimum` and
+#: :func:`~mbimpact.quadrature.graded.minimum_sensitivity` compiled: the same functions as the numpy rules'.
+ring_form = njit(cache=True, error_model="numpy", inline="always")(ring_coefficients)
+polish_minimum = njit(cache=True, error_model="numpy", inline="always")(graded.polish_minimum)
+minimum_sensitivity = njit(cache=True, error_model="numpy", inline="always")(graded.minimum_sensitivity)
 
 
 @njit(cache=True, error_model="numpy")
@@ -124,7 +121,6 @@ def ring_minima_into(form: tuple[float, float, float, float, float], peaked: flo
         return 0
     # ring_minima: a trigonometric polynomial of degree 2 has at most two local minima (and so has its
     # sampling: a grid minimum brackets one, and two grid minima are not adjacent)
-    noise = _NEWTON_ROUNDING * EPS * (abs(a1) + abs(b1) + 2 * abs(a2) + 2 * abs(b2))  # rounding of q'
     k = 0
     for i in range(64):
         q = q0 + a1 * _GRID[0, i] + b1 * _GRID[1, i] + a2 * _GRID[2, i] + b2 * _GRID[3, i]
@@ -134,20 +130,7 @@ def ring_minima_into(form: tuple[float, float, float, float, float], peaked: flo
                 and q < q0 + a1 * _GRID[0, after] + b1 * _GRID[1, after] + a2 * _GRID[2, after]
                 + b2 * _GRID[3, after]) or k == 2:
             continue
-        phi = _GRID_ANGLES[i]
-        for _ in range(50):
-            c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
-            dq = -a1 * s1 + b1 * c1 - 2 * a2 * s2 + 2 * b2 * c2
-            d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
-            step = min(max(dq / d2q, -0.05), 0.05) if d2q > 0 else 0.0
-            phi -= step
-            if abs(step) <= max(1e-15, noise / d2q if d2q > 0 else 0.0):
-                break
-        c1, s1, c2, s2 = math.cos(phi), math.sin(phi), math.cos(2 * phi), math.sin(2 * phi)
-        qmin = q0 + a1 * c1 + b1 * s1 + a2 * c2 + b2 * s2
-        d2q = -a1 * c1 - b1 * s1 - 4 * a2 * c2 - 4 * b2 * s2
-        phi_out[k] = phi % (2 * math.pi)
-        eps_out[k] = math.sqrt(2.0 * max(qmin, 0.0) / max(d2q, 1e-300))
+        phi_out[k], eps_out[k] = polish_minimum(_GRID_ANGLES[i], q0, a1, b1, a2, b2)
         k += 1
     # Cone.graded_rule: a peak narrower than `peaked`, none too narrow to grade
     narrowest = math.inf
@@ -173,16 +156,7 @@ def minima_sensitivity(s: float, c: float, W: NDArray[np.float64], phi: NDArray[
     """
     worst = 0.0
     for j in range(k):
-        p0, p1 = s * math.cos(phi[j]), s * math.sin(phi[j])
-        qmin = (p0 * (W[0, 0] * p0 + W[0, 1] * p1 + W[0, 2] * c) + p1 * (W[1, 0] * p0 + W[1, 1] * p1 + W[1, 2] * c)
-                + c * (W[2, 0] * p0 + W[2, 1] * p1 + W[2, 2] * c))
-        if not qmin > 0.0:
-            return math.inf
-        a0, a1 = abs(p0), abs(p1)
-        size = (a0 * (abs(W[0, 0]) * a0 + abs(W[0, 1]) * a1 + abs(W[0, 2]) * c)
-                + a1 * (abs(W[1, 0]) * a0 + abs(W[1, 1]) * a1 + abs(W[1, 2]) * c)
-                + c * (abs(W[2, 0]) * a0 + abs(W[2, 1]) * a1 + abs(W[2, 2]) * c))
-        worst = max(worst, power * EPS * size / qmin)
+        worst = max(worst, minimum_sensitivity(s, c, W, phi[j], power))
     return worst
 
 

@@ -147,7 +147,7 @@ def _add_node(sums: NDArray[np.float64], x: float, c: float, a: float,
     return size, tau
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def laplace_average(W: NDArray[np.float64], U: NDArray[np.float64], sigma: float, e: float, rtol: float,
                     degenerate: float, P: NDArray[np.float64], error: NDArray[np.float64]
                     ) -> tuple[int, int]:  # pragma: no cover — compiled
