@@ -110,20 +110,20 @@ def _route(mech: object, contact: object, law: object) -> Callable[..., ImpactRe
 def _front(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: PointContact, law: ImpactLaw) -> ImpactResult:
     """Route 1, the compiled front end, at a point contact of a spatial law; what it leaves takes the
     pipeline."""
-    native = front.NATIVE
-    if native is None or law.dim not in (None, 3):
-        return _pipeline(mech, q, v, contact, law)
     compiled = law.compiled_impact()
-    if compiled is not None and compiled.front is not None:  # the whole impact in C++
-        bound = mech.front_end()
+    whole = None if compiled is None else compiled.front
+    if whole is not None:  # the whole impact in C++
+        bound = mech.front_end()  # None where the front end is off (front.disabled() included)
         if bound is not None:
             n = mech.nv
             out = np.empty(6 * n + 12 + n * n)
-            if getattr(native, compiled.front)(bound, q, v, mech.frame_id(contact.frame), contact.point,
-                                               contact.basis(), *compiled.front_args, out) == native.DONE:
+            native = front.NATIVE
+            assert native is not None  # a bound front end implies the module loaded
+            if whole(native, bound, q, v, mech.frame_id(contact.frame), contact.point, contact.basis(),
+                     out) == native.DONE:
                 return ImpactResult.from_packed(out, n, 3, law)
-    else:
-        stage = mech.front_stage_one(q, v, mech.frame_id(contact.frame), contact.point)
+    elif law.dim in (None, 3):
+        stage = mech.front_stage_one(q, v, mech.frame_id(contact.frame), contact.point)  # None where it is off
         if stage is not None:
             A, U, D, J = stage
             J.setflags(write=False)

@@ -71,7 +71,8 @@ _BUDGET = 2e7
 _BUDGET_PER_ROW = 2e5
 # Kernel samples that cost what the Laplace reduction spends on a velocity beyond a table's lookup (~4 µs at
 # ~0.15 µs a sample): where it applies, a table is built once the velocities averaged at its W cost the
-# reduction what the table is found to cost at the least (its series then get four times that)
+# reduction what the table is found to cost at the least. A build stopped by that budget is tried again
+# once the budget has doubled: what failed builds waste stays within what the rows cost the reduction
 _LAPLACE_ROW = 30.0
 
 
@@ -225,10 +226,11 @@ def _H(beta: float, rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, 
 
 
 def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: float = _BUDGET,
-           series_budget: float | None = None) -> tuple[TiltTable | None, float]:
+           series_budget: float | None = None, retry: float = 1.0) -> tuple[TiltTable | None, float]:
     """The table, or None where it is too rough, would cost more than ``budget`` kernel samples at the
-    least, or its series more than ``series_budget`` (default: ``budget``); and the least it costs (what a
-    later budget must reach for a refused table to be tried again: inf where it can never be built)."""
+    least, or its series more than ``series_budget`` (default: ``budget``); and what a later budget must
+    reach for a refused table to be tried again: the least it costs, or ``retry`` times this budget where
+    the series ran out of it (inf where it can never be built)."""
     lo, hi = rough.support
     # Fourier degree in φ: enough for the sharpest ring of the support
     probe = np.linspace(lo, hi, 65)
@@ -279,7 +281,8 @@ def _build(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, budget: f
     for beta0, beta1 in zip(ends[:-1], ends[1:]):
         piece = _series(rough, W, flux, M, n_tilt, beta0, math.sqrt(beta1 - beta0), left)
         if piece is None:
-            return None, math.inf if left[0] >= 0 else max(least, budget + 1.0)  # too rough, or more than allowed
+            # too rough, or more than allowed
+            return None, math.inf if left[0] >= 0 else max(least, retry * budget, budget + 1.0)
         pieces.append(piece[0])
         tail = max(tail, piece[1])
     # keep the azimuthal terms that matter in any piece, the same L for all
@@ -387,7 +390,7 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
         return None
     W = np.ascontiguousarray(W, dtype=float)
     key = (id(rough), W.tobytes(), str(flux))
-    least = budget is not None  # the budget bounds the least cost, the series get four times it
+    least = budget is not None  # the budget bounds the series' whole cost as well
     budget = max(_BUDGET, _BUDGET_PER_ROW * rows) if budget is None else budget
     with _LOCK:
         hit = _CACHE.get(key)
@@ -399,7 +402,7 @@ def tilt_table(rough: IsotropicSlopes, W: NDArray[np.float64], flux: Flux, build
             return hit[1]
     if not build:
         return None
-    table, cost = _build(rough, W, flux, budget, 4.0 * budget if least else budget)
+    table, cost = _build(rough, W, flux, budget, budget, retry=2.0 if least else 1.0)
     with _LOCK:
         _CACHE[key] = (rough, table, budget, cost)  # the measure is kept alive, so its id stays unique
         _CACHE.move_to_end(key)

@@ -117,8 +117,9 @@ def set_kernel_threads(n: int | None) -> int | None:
 
 
 #: Rows of a block handed from :func:`over_rows`'s producer to its kernel threads: a few hundred
-#: microseconds of work each, so that the hand-over (~10 µs) is small beside it.
-BLOCK_ROWS = 64
+#: microseconds of work each, so that the hand-over (the GIL passed from the producer, which holds it
+#: while it fills, to a helper and back) is small beside it.
+BLOCK_ROWS = 256
 
 
 _POOL_LOCK = threading.Lock()

@@ -72,10 +72,14 @@ class CompiledImpact:
         The law's own arguments of both kernels.
     methods : tuple of str
         The ``method`` of a result settled with each status code.
-    front : str or None
-        The compiled front end's function that computes this impact whole with stage 1
-        (:mod:`mbimpact.mechanism.front`: ``"newton"``), if it has one; it takes ``front_args``.
-    front_args : tuple
+    front : callable or None
+        The whole impact with stage 1 in one call of the compiled front end (:mod:`mbimpact.mechanism.front`),
+        if it has one: ``front(native, bound, q, v, frame, point, basis, out)`` returns the front end's
+        status, ``native.DONE`` where ``out`` holds the packed result (:meth:`ImpactResult.from_packed`).
+    overlap : bool
+        Whether :meth:`run_stack` runs the batch kernel on other threads while the rows are gathered:
+        False where the kernel costs a row less than Pinocchio's work to gather it (Newton's one solve),
+        so that handing blocks between threads would cost more than it overlaps.
     """
 
     kernels: KernelModule
@@ -83,8 +87,8 @@ class CompiledImpact:
     batch: str
     args: tuple[Any, ...]
     methods: tuple[str, ...]
-    front: str | None = None
-    front_args: tuple[Any, ...] = ()
+    front: Callable[..., int] | None = None
+    overlap: bool = True
 
     def run(self, law: ImpactLaw, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
             J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64], trusted: bool
@@ -131,7 +135,12 @@ class CompiledImpact:
             kernel(U[a:b], D[a:b], J[a:b], V[a:b], R[a:b], DEGENERATE, RANK_FLOOR, *self.args, buffer[a:b],
                    status[a:b], nodes[a:b], stats[a:b])
 
-        over_rows(rows, B, fill)
+        if self.overlap:
+            over_rows(rows, B, fill)
+        else:
+            if fill is not None:
+                fill(0, B)
+            rows(0, B)
         settled = (status >= 0) & (stats[:, 4] == 1.0)
         methods = {self.methods[code] for code in np.unique(status[settled])}
         return _stack_result(law, A, J, buffer, settled, nodes, stats, methods, row)

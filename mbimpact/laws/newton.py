@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import functools
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,9 +24,19 @@ __all__ = ["NewtonLaw", "KERNELS"]
 KERNELS = KernelModule("mbimpact.laws.newton_kernels")
 
 
-@functools.lru_cache(maxsize=64)
 def _compiled(e: float) -> CompiledImpact:
-    return CompiledImpact(KERNELS, "newton_impact", "newton_batch", (e,), ("closed-form",), "newton", (e,))
+    """The compiled impact of a restitution ``e``, made once (:meth:`NewtonLaw.compiled_impact` looks it up)."""
+    if len(_COMPILED) > 256:
+        _COMPILED.clear()
+    def front(native: Any, bound: Any, q: Any, v: Any, frame: int, point: Any, basis: Any, out: Any) -> Any:
+        return native.newton(bound, q, v, frame, point, basis, e, out)  # stage 1 and (1.2) in one C++ call
+
+    made = _COMPILED[e] = CompiledImpact(KERNELS, "newton_impact", "newton_batch", (e,), ("closed-form",), front,
+                                         overlap=False)
+    return made
+
+
+_COMPILED: dict[float, CompiledImpact] = {}
 
 
 _BIG = 1e300  # squares below it: magnitudes below 1e150, whose sums and products of two cannot overflow
@@ -63,9 +73,12 @@ class NewtonLaw(ImpactLaw):
 
     def compiled_impact(self) -> CompiledImpact | None:
         """One compiled call on Pinocchio's factor (:func:`mbimpact.laws.newton_kernels.newton_impact`), and
-        the compiled front end's whole impact at a point contact (``"newton"``: stage 1 and (1.2) in one C++
-        call); None for a subclass."""
-        return _compiled(self.e) if type(self) is NewtonLaw else None
+        the compiled front end's whole impact at a point contact (``native.newton``: stage 1 and (1.2) in one
+        C++ call); None for a subclass."""
+        if type(self) is not NewtonLaw:
+            return None
+        made = _COMPILED.get(self.e)
+        return _compiled(self.e) if made is None else made
 
     def apply_metric(self, metric: ContactMetric, v: NDArray[np.float64], R: NDArray[np.float64]) -> ImpactResult:
         # Newton's impulse needs A⁻¹ along one direction only, y = A⁻¹ Jᵀn⁰: one solve with

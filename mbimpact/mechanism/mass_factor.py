@@ -17,13 +17,9 @@ if TYPE_CHECKING:
 __all__ = ["MassFactor", "new_token", "pivots_valid"]
 
 
-# Every factorisation gets a token: a factor knows whether its thread's workspace still holds it.
-_TOKENS = itertools.count(1)
-
-
-def new_token() -> int:
-    """A token for a new factorisation in a workspace (unique in this process)."""
-    return next(_TOKENS)
+#: A token for a new factorisation in a workspace, unique in this process: a factor knows whether its
+#: thread's workspace still holds it. (The counter's own ``__next__``: it is taken on every impact.)
+new_token = itertools.count(1).__next__
 
 
 def _restored_factor(mechanism: Mechanism, q: NDArray[np.float64], valid: bool) -> MassFactor:
@@ -55,10 +51,6 @@ class MassFactor:
     q: NDArray[np.float64]
     token: int
     valid: bool
-
-    def __init__(self, mechanism: Mechanism, q: NDArray[np.float64], token: int, valid: bool) -> None:
-        # written out: a frozen dataclass's generated __init__ sets fields through object.__setattr__
-        self.__dict__.update(mechanism=mechanism, q=q, token=token, valid=valid)
 
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         # a new token when unpickled (in the loading process): its counter may have issued this one already

@@ -149,3 +149,36 @@ def test_a_table_is_built_where_it_pays_against_the_laplace_reduction(monkeypatc
     table = law.contact_impulses(mild, U)
     assert table.method == "tilt-table" and tilt_table(law.roughness, mild, "physical", build=False) is not None
     assert relative_du(table.P, reduction.P, mild).max() < 1e-11
+
+
+def test_a_build_cut_short_by_its_budget_is_tried_again_once_the_budget_has_doubled(monkeypatch):
+    """What failed builds waste stays within what the rows cost the reduction: a table whose series run out
+    of a budget (cond W = 100: its series need more than their second level) is not started again under a
+    budget less than twice that one, and is under one at least twice."""
+    from mbimpact.averaging import tilt_table as module
+
+    rng = np.random.default_rng(6)
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    W = Q @ np.diag([1.0, 10.0, 100.0]) @ Q.T / 111.0
+    rough = mbi.GaussianSlopes(0.3)
+    builds = []
+    real = module._build
+
+    def counted(*args, **kwargs):
+        out = real(*args, **kwargs)
+        builds.append((args[3], out[0] is not None, out[1]))
+        return out
+
+    monkeypatch.setattr(module, "_build", counted)
+    budget = 1e5
+    for _ in range(8):  # each refusal names what the table costs at the least, as far as it got to see
+        assert tilt_table(rough, W, "physical", budget=budget) is None
+        if builds[-1][2] == 2 * budget:  # past its least cost, cut short in its series: retried at twice it
+            break
+        budget = 1.05 * builds[-1][2]
+    else:
+        raise AssertionError(f"never cut short in its series: {builds}")
+    tried = len(builds)
+    assert tilt_table(rough, W, "physical", budget=1.9 * budget) is None and len(builds) == tried  # not retried
+    tilt_table(rough, W, "physical", budget=2.0 * budget)
+    assert len(builds) == tried + 1 and builds[-1][0] == 2.0 * budget

@@ -204,8 +204,10 @@ def batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchR
         ("RoughLaw(Cone), nodes", 32, RoughLaw(Cone(0.3), E, nodes=32)),
         ("RoughLaw(Cone), nodes", 64, RoughLaw(Cone(0.3), E, nodes=64)),
         ("RoughLaw(Cone), adaptive", 0, RoughLaw(Cone(0.3), E)),
-        # a continuous tilt density: its table in the incidence is built on the first call
-        ("RoughLaw(GaussianSlopes(0.3)), adaptive", 0, RoughLaw(GaussianSlopes(0.3), E)),
+        # a continuous tilt density: "auto" takes the Laplace reduction until the rows seen at one W pay
+        # for a table in the incidence; the table itself, built on its first call, then a lookup
+        ("RoughLaw(GaussianSlopes(0.3)), auto", 0, RoughLaw(GaussianSlopes(0.3), E)),
+        ("RoughLaw(GaussianSlopes(0.3)), tilt-table", 0, RoughLaw(GaussianSlopes(0.3), E, method="tilt-table")),
     ]
     for name in robots:
         mech = Mechanism.from_robot(name)
@@ -228,8 +230,12 @@ def batch(robots: tuple[str, ...], size: int, progress: Progress) -> list[BenchR
                 law.apply_batch(A, J, V, n0).V_plus  # read: a lazy batch forms it on access
                 passes.append(time.perf_counter() - start)
             if isinstance(law, RoughLaw) and isinstance(law.roughness, GaussianSlopes):
-                rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label + ", first call (builds the table)",
-                                     param, 0.0, passes[0] / len(V), len(V) / passes[0]))
+                # the first call decides (or builds the table), the second reuses what it found
+                first = ", first call (builds the table)" if law.method is not None else ", first call"
+                for suffix, elapsed in ((first, passes[0]), (", second call", passes[1])):
+                    rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label + suffix, param, 0.0,
+                                         elapsed / len(V), len(V) / elapsed))
+                continue
             elapsed = min(passes)
             rows.append(BenchRow("batch", f"{name} (n={mech.nv})", label, param, 0.0, elapsed / len(V), len(V) / elapsed))
         # the other facet laws average a facet impact that is itself an integration (Coulomb: in
