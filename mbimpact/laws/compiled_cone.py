@@ -24,11 +24,11 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
-from ..averaging.compiled.cone import adaptive_levels
+from ..averaging.compiled.cone import cone_adaptive
 from ..averaging.compiled.cone import rule_table as cone_table
-from ..averaging.compiled.graded_cone import graded_levels
+from ..averaging.compiled.graded_cone import graded_cone
 from ..averaging.compiled.graded_cone import rule_table as graded_table
-from ..averaging.compiled.poles import pole_levels
+from ..averaging.compiled.poles import poles as pole_rule
 from ..averaging.compiled.primitives import NOT_PEAKED, SETTLED
 from ..metric.kernels import READY, finish_into, prepare_into, single_size
 
@@ -69,13 +69,13 @@ def _impact_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.f
     for k in range(steps.shape[0]):
         step = steps[k]
         if step == _POLES:
-            status, nodes = pole_levels(alpha, W_local, U_local, poles, pole_levels_, peaked, e, rtol, degenerate, P,
+            status, nodes = pole_rule(alpha, W_local, U_local, poles, pole_levels_, peaked, e, rtol, degenerate, P,
                                         error)
         elif step == _GRADED:
-            status, nodes = graded_levels(alpha, W_local, U_local, graded, graded_levels_, peaked, configuration, e,
+            status, nodes = graded_cone(alpha, W_local, U_local, graded, graded_levels_, peaked, configuration, e,
                                           rtol, degenerate, P, error)
         else:
-            status, nodes = adaptive_levels(alpha, W_local, U_local, cone, cone_levels, configuration, e, rtol,
+            status, nodes = cone_adaptive(alpha, W_local, U_local, cone, cone_levels, configuration, e, rtol,
                                             degenerate, P, error)
         if status == SETTLED:
             finite, un_plus = finish_into(P, R, speed / w_scale, buf)

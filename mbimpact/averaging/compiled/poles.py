@@ -106,8 +106,8 @@ def ring_zero(s: float, c: float, W: NDArray[np.float64], phi: float, eps: float
 def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
                 levels: int, peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
                 error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """:func:`poles` without its explicit signature: other kernels (a single cone impact,
-    :mod:`mbimpact.laws.compiled_cone`) compile it for their own array types."""
+    """The body of :func:`poles`, whose one explicit signature the single cone impact
+    (:mod:`mbimpact.laws.compiled_cone`) calls too: the rule is compiled once, for one set of array types."""
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
     k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
