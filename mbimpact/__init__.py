@@ -54,6 +54,8 @@ from .errors import (
     SceneError,
     ShapeError,
     TableError,
+    UnreachableVelocityError,
+    URDFError,
 )
 from .facets import (
     FACETS,
@@ -75,6 +77,7 @@ from .mechanism import (
     model_names,
     model_path,
     models_dir,
+    joint_velocity,
     robot_names,
     robot_urdf,
 )
@@ -138,6 +141,7 @@ __all__ = [
     "PointContact",
     "impact",
     "impact_batch",
+    "joint_velocity",
     "ContactMetric",
     "local_basis",
     # collision geometry
@@ -230,9 +234,11 @@ __all__ = [
     "NonFiniteError",
     "NotPositiveDefiniteError",
     "ParameterError",
+    "UnreachableVelocityError",
     "RoughnessError",
     "NameNotFoundError",
     "RobotNotFoundError",
+    "URDFError",
     "FrameNotFoundError",
     "CollisionNotFoundError",
     "GeometryError",
@@ -248,8 +254,11 @@ __all__ = [
     "__version__",
 ]
 
-# submodules reached as attributes, imported on first use (the apps pull in matplotlib)
-_LAZY = {"apps": ".apps", "section4": ".simulation.section4", "theory": ".theory"}
+# subpackages reached as attributes (mbi.simulation.section4.stability(...)), imported on first use: the
+# apps pull in matplotlib, the scenes jsonschema and scipy
+_LAZY = {"apps": ".apps", "section4": ".simulation.section4", "theory": ".theory", "simulation": ".simulation",
+         "calibration": ".calibration", "compliant": ".compliant", "geometry": ".geometry",
+         "averaging": ".averaging"}
 
 # Public names of the subpackages a single impact does not need, imported on first use: the scenes
 # and their simulator, the compliant route, calibration and collision geometry would otherwise

@@ -22,9 +22,11 @@ __all__ = [
     "NonFiniteError",
     "NotPositiveDefiniteError",
     "ParameterError",
+    "UnreachableVelocityError",
     "RoughnessError",
     "NameNotFoundError",
     "RobotNotFoundError",
+    "URDFError",
     "FrameNotFoundError",
     "CollisionNotFoundError",
     "GeometryError",
@@ -62,6 +64,11 @@ class ParameterError(ImpactError):
     """A scalar parameter (e, k, alpha, ...) is outside its valid range."""
 
 
+class UnreachableVelocityError(ParameterError):
+    """A contact velocity the mechanism cannot produce at its posture: no joint velocity v gives J v = u
+    (a singular posture, too few joints); the message gives the asked and the nearest achievable velocity."""
+
+
 class RoughnessError(ImpactError):
     """A roughness measure is ill-formed (weights, facet normals, dimension)."""
 
@@ -72,6 +79,12 @@ class NameNotFoundError(ImpactError):
 
 class RobotNotFoundError(NameNotFoundError):
     """No example-robot-data robot or URDF file of that name."""
+
+
+class URDFError(RobotNotFoundError):
+    """A URDF (or MJCF) file exists but cannot be parsed; the message gives its path and the
+    parser's complaint. (A :class:`RobotNotFoundError`: ``except RobotNotFoundError`` catches every
+    robot that could not be loaded.)"""
 
 
 class FrameNotFoundError(NameNotFoundError):

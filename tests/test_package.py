@@ -49,3 +49,15 @@ def test_every_subpackage_is_installed_by_a_non_editable_install():
                             for p in root.rglob("__init__.py") if p.parent != root}
     listed = set(tomllib.loads((source / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     assert listed - {"mbimpact.models"} == found
+
+
+def test_documented_subpackages_are_attributes_loaded_on_use():
+    """``mbi.simulation.section4.stability(...)`` works after ``import mbimpact as mbi`` alone, and `import
+    mbimpact` still leaves the scenes unloaded until then."""
+    code = ("import sys, mbimpact as mbi; loaded = 'mbimpact.simulation' in sys.modules; "
+            "s = mbi.simulation.section4.stability(mbi.Cone(0.2), 0.5, 1); "
+            "print(loaded, 0 < s.lam < 1, mbi.calibration.__name__, mbi.averaging.__name__, mbi.theory.__name__, "
+            "mbi.compliant.__name__, mbi.geometry.__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "True", "mbimpact.calibration", "mbimpact.averaging", "mbimpact.theory",
+                                  "mbimpact.compliant", "mbimpact.geometry"]

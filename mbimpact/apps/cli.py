@@ -110,11 +110,17 @@ def _demo(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from .bench import PARTS, format_report, plot, run_bench, write_csv
 
+    command = " ".join(["mbimpact bench", *(["--quick"] if args.quick else []),
+                        *(f"--part {p}" for p in args.parts or ())])
     rows = run_bench(quick=args.quick, show_progress=not args.no_progress, parts=tuple(args.parts or PARTS))
-    print(format_report(rows))
+    report = format_report(rows, command=command)
+    print(report)
     if args.out:
         out = Path(args.out)
-        print(f"\nwrote {write_csv(rows, out / 'bench.csv')}")
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "report.md").write_text(report + "\n")
+        print(f"\nwrote {out / 'report.md'}")
+        print(f"wrote {write_csv(rows, out / 'bench.csv')}")
         print(f"wrote {plot(rows, out / 'bench.png')}")
     return 0
 
@@ -175,7 +181,7 @@ def _figures(args: argparse.Namespace) -> int:
             out = _out_dir("figures")
         except argparse.ArgumentTypeError as exc:
             raise ParameterError(f"--out (default ./figures): {exc}") from None
-    for path in write_all(out):
+    for path in write_all(out, progress=not args.no_progress):
         print(f"wrote {path}")
     return 0
 
@@ -227,11 +233,12 @@ def main(argv: list[str] | None = None) -> int:
     demo.set_defaults(func=_demo)
     bench = sub.add_parser("bench", help="accuracy vs time, overhead against Pinocchio, batch throughput, scenes")
     bench.add_argument("--quick", action="store_true", help="small grids (< 30 s)")
-    bench.add_argument("--out", type=_out_dir, help="directory for bench.csv and bench.png")
+    bench.add_argument("--out", type=_out_dir, help="directory for report.md (the tables, with the machine, versions and date), "
+                                                         "bench.csv and bench.png")
     bench.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     bench.add_argument("--part", dest="parts", action="append",
                        choices=["accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads",
-                                "import", "geometry", "scenes", "mujoco"],  # bench.PARTS (not imported here: start-up)
+                                "import", "first-run", "geometry", "scenes", "mujoco"],  # bench.PARTS (not imported here: start-up)
                        help="run only this part (repeatable; default all)")
     bench.set_defaults(func=_bench)
     cmp = sub.add_parser("compare", help="Newton vs rough vs Coulomb law over the incidence angle")
@@ -261,6 +268,7 @@ def main(argv: list[str] | None = None) -> int:
     figs = sub.add_parser("figures", help="the paper's Fig. 1 and 2, claims 1°-5°, section 4's stability map")
     # no default here: argparse would convert (and so create) ./figures whenever the subcommand is parsed
     figs.add_argument("--out", type=_out_dir, help="output directory (default ./figures)")
+    figs.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     figs.set_defaults(func=_figures)
     run = sub.add_parser("run", help="simulate a scene (a TOML file or a shipped scene name)")
     run.add_argument("scene", help="path to a scene TOML, or a name from models/scenes")

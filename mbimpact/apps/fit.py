@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,7 +29,7 @@ import numpy as np
 from ..errors import ParameterError
 
 __all__ = ["DEFAULT_LAWS", "Skipped", "fit_laws", "format_report", "best_per_column", "write_csv",
-           "write_predictions", "plot", "add_parser", "run"]
+           "write_predictions", "fit_figure", "plot", "add_parser", "run"]
 
 #: The families compared when ``--law`` is not given.
 DEFAULT_LAWS = ("newton", "coulomb", "rough-newton", "rough-coulomb", "compliant", "rough-compliant")
@@ -44,20 +45,47 @@ class Skipped:
 
 def fit_laws(table: Any, laws: tuple[str, ...], body: Any = None, speed: float | None = None,
              starts: int | None = None, seed: int | None = 0, progress: bool = False) -> list[Any]:
-    """:func:`mbimpact.fit` of every family in ``laws``: a list of :class:`~mbimpact.calibration.Fit` or :class:`Skipped`."""
-    from ..calibration import FitError, fit
+    """:func:`mbimpact.fit` of every family in ``laws``.
 
+    Parameters
+    ----------
+    table : ImpactTable
+    laws : tuple of str
+        Family names (:data:`mbimpact.calibration.FAMILIES`).
+    body, speed, starts, seed
+        As for :func:`mbimpact.fit`.
+    progress : bool
+        Draw a progress bar (per law and starting point) on stderr when it is a terminal.
+
+    Returns
+    -------
+    list
+        A :class:`~mbimpact.calibration.Fit` or a :class:`Skipped` per law, in the order of ``laws``.
+    """
+    from ..calibration import FitError, fit
+    from .progress import Progress
+
+    # each law gets the same share of the bar, split evenly between its starting points
+    share = 12
+    bar = Progress(share * len(laws), f"fitting {len(laws)} law(s)", enabled=progress)
     out: list[Any] = []
-    for name in laws:
-        if progress:
-            print(f"fitting {name} ...", flush=True)
-        try:
-            out.append(fit(table, name, body, speed=speed, starts=starts, seed=seed))
-        except FitError as exc:
-            if "speed" in str(exc):  # a speed-dependent law on a table without speeds: say so, go on
-                out.append(Skipped(name, str(exc)))
-            else:
-                raise
+    try:
+        for k, name in enumerate(laws):
+            def advance(done: int, total: int, k: int = k, name: str = name) -> None:
+                target = k * share + (share * done) // total
+                while bar.done < target:
+                    bar.step(f"{name} {done}/{total}")
+
+            try:
+                out.append(fit(table, name, body, speed=speed, starts=starts, seed=seed, progress=advance))
+            except FitError as exc:
+                if "speed" in str(exc):  # a speed-dependent law on a table without speeds: say so, go on
+                    out.append(Skipped(name, str(exc)))
+                else:
+                    raise
+            advance(1, 1)
+    finally:
+        bar.close()
     return out
 
 
@@ -124,14 +152,56 @@ def write_predictions(table: Any, fits: list[Any], path: Path) -> Path:
     return path
 
 
-def plot(table: Any, fits: list[Any], path: Path) -> Path:
-    """Data against the fitted laws: one panel per column, plus the contact point's tangential restitution."""
-    import matplotlib
+#: Line styles of the fitted laws: colour, dash pattern and marker all differ, so that laws whose
+#: curves coincide stay visible (their markers are placed at different incidences).
+STYLES = (("C0", "-", "o"), ("C1", "--", "s"), ("C2", "-.", "^"), ("C3", ":", "v"), ("C4", (0, (5, 1)), "D"),
+          ("C5", (0, (3, 1, 1, 1)), "P"), ("C6", (0, (1, 1)), "X"), ("C7", "-", "*"), ("C8", "--", "h"))
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from ..calibration import QUANTITIES
+def _coinciding(labels: list[str], curves: list[np.ndarray], tol: float) -> list[list[str]]:
+    """Groups (two or more) of laws whose curves differ by at most ``tol`` everywhere."""
+    groups: list[list[int]] = []
+    for i, c in enumerate(curves):
+        for g in groups:
+            ref = curves[g[0]]
+            both = np.isfinite(c) & np.isfinite(ref)
+            if both.any() and np.array_equal(np.isfinite(c), np.isfinite(ref)) and np.max(np.abs(c - ref)[both]) <= tol:
+                g.append(i)
+                break
+        else:
+            groups.append([i])
+    return [[labels[i] for i in g] for g in groups if len(g) > 1]
+
+
+def _describe(table: Any, body: Any) -> str:
+    """The conditions of the table for a title: body and impact speed."""
+    from ..calibration import Ball
+
+    if isinstance(body, Ball):
+        what = f"ball of radius {body.radius * 1e3:.4g} mm and mass {body.mass * 1e3:.4g} g"
+    else:
+        what = "point mass"
+    speeds = np.unique(np.asarray(table.speed, dtype=float)) if table.speed is not None else np.array([])
+    speeds = speeds[np.isfinite(speeds)]
+    if speeds.size == 1:
+        what += f", impact speed {speeds[0]:.3g} m/s"
+    elif speeds.size > 1:
+        what += f", impact speeds {speeds.min():.3g} to {speeds.max():.3g} m/s"
+    return what + ", no initial spin"
+
+
+def fit_figure(table: Any, fits: list[Any]) -> Any:
+    """Data against the fitted laws: one panel per column, plus the contact point's tangential
+    restitution; one legend for all panels (every law with its RMS per column).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Each panel's title names the laws whose curves coincide there and those that leave its axes.
+    """
+    from matplotlib.figure import Figure
+
+    from ..calibration import QUANTITIES, Ball
 
     done = [f for f in fits if not isinstance(f, Skipped)]
     panels = list(table.quantities) + (["et_cp"] if "et_cp" not in table.quantities else [])
@@ -139,13 +209,17 @@ def plot(table: Any, fits: list[Any], path: Path) -> Path:
     preds = [f.predict(grid) for f in done]
     ncol = min(3, len(panels))
     nrow = math.ceil(len(panels) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 3.9 * nrow), squeeze=False)
-    styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 1))]
+    fig = Figure(figsize=(5.6 * ncol, 4.2 * nrow + 1.4), layout="constrained")
+    axes = fig.subplots(nrow, ncol, squeeze=False)
+    body = done[0].body if done else table.body()
     for ax, q in zip(axes.flat, panels):
-        for k, (f, p) in enumerate(zip(done, preds)):
-            if q in p:
-                ax.plot(grid, p[q], linestyle=styles[k % len(styles)], lw=1.6,
-                        label=f"{f.label} (rms {f.quantity_rms[q]:.3g})" if q in f.quantity_rms else f.label)
+        unit = QUANTITIES[q].unit
+        notes = []
+        drawn = [(f, p[q]) for f, p in zip(done, preds) if q in p]
+        for k, (f, y) in enumerate(drawn):
+            color, dash, marker = STYLES[done.index(f) % len(STYLES)]
+            ax.plot(grid, y, color=color, linestyle=dash, lw=1.5, marker=marker, ms=5, mfc="none",
+                    markevery=(3 * done.index(f) % 18, 18), label=f.label)
         if q in table.quantities:
             y = table.values(q)
             ok = ~np.isnan(y)
@@ -154,27 +228,49 @@ def plot(table: Any, fits: list[Any], path: Path) -> Path:
             lo, hi = float(np.min(y[ok])), float(np.max(y[ok]))
             span = max(hi - lo, 0.05 * max(abs(lo), abs(hi)), 1e-3)
             inside = (grid >= table.theta_deg[ok].min()) & (grid <= table.theta_deg[ok].max())
-            shown = [p[q][inside] for p in preds if q in p and inside.any()]
+            shown = [v[inside] for _, v in drawn if inside.any()]
             plo = min([lo] + [float(np.nanmin(v)) for v in shown if np.isfinite(v).any()])
             phi = max([hi] + [float(np.nanmax(v)) for v in shown if np.isfinite(v).any()])
             ax.set_ylim(max(plo, lo - 2 * span) - 0.08 * span, min(phi, hi + 2 * span) + 0.08 * span)
-        unit = QUANTITIES[q].unit
-        ax.set_title(f"{q}: {QUANTITIES[q].description}" + ("" if q in table.quantities else " (no data)"),
-                     fontsize=9)
-        ax.set_xlabel("incidence from the normal θ (deg)")
-        ax.set_ylabel(f"{q}" + (f" ({unit})" if unit else ""))
-        if q in ("et", "et_cp"):
-            ax.axhline(5 / 7, color="0.6", lw=0.8, ls=":")
+            bottom, top = ax.get_ylim()
+            for f, v in drawn:
+                part = v[inside & np.isfinite(v)]
+                if part.size and (part.min() < bottom or part.max() > top):
+                    notes.append(f"{f.label} leaves the axes: {part.min():.3g} to {part.max():.3g}"
+                                 f"{' ' + unit if unit else ''} over the data's θ")
+        if q in ("et", "et_cp") and isinstance(body, Ball):
+            if q == "et":  # angular momentum about the contact point: v_t+ = v_t- m R² / (m R² + I)
+                roll = body.mass * body.radius**2 / (body.mass * body.radius**2 + float(body.inertia or 0.0))
+                ax.axhline(roll, color="0.4", lw=0.9, ls=":",
+                           label=f"{roll:.3g}{' = 5/7' if abs(roll - 5 / 7) < 1e-9 else ''}: the ball ends rolling")
+            else:
+                ax.axhline(0.0, color="0.4", lw=0.9, ls=":", label="0: the contact point ends at rest (rolling)")
+        span = float(np.subtract(*ax.get_ylim()[::-1]))
+        groups = _coinciding([f.label for f, _ in drawn], [v for _, v in drawn], 0.01 * span)
+        notes = [" = ".join(g) + " coincide" for g in groups] + notes
+        ax.set_title("\n".join([f"{q}: {QUANTITIES[q].description}" + ("" if q in table.quantities else " (no data)")]
+                               + notes), fontsize=9)
+        ax.set_xlabel("incidence from the normal θ [deg]")
+        ax.set_ylabel(f"{q} [{unit or '–'}]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(panels):]:
         ax.set_visible(False)
-    fig.suptitle(f"{table.name}: impact laws fitted by least squares", fontsize=11)
-    fig.text(0.5, 0.005, best_per_column(fits), ha="center", va="bottom", fontsize=8)
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    handles: dict[str, Any] = {}
+    for ax in axes.flat:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(label, h)
+    rms = {f.label: ", ".join(f"{q} {r:.3g}" for q, r in f.quantity_rms.items()) for f in done}
+    names = [f"{label} (rms: {rms[label]})" if label in rms else label for label in handles]
+    fig.legend(list(handles.values()), names, loc="outside lower center", ncols=min(3, len(names)), fontsize=8)
+    fig.suptitle(f"{table.name}: impact laws fitted by least squares ({_describe(table, body)})\n"
+                 + best_per_column(fits), fontsize=10)
+    return fig
+
+
+def plot(table: Any, fits: list[Any], path: Path) -> Path:
+    """Write :func:`fit_figure` to ``path`` (PNG)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    fit_figure(table, fits).savefig(path, dpi=130)
     return path
 
 
@@ -214,12 +310,18 @@ def _seed(text: str) -> int:
     return n
 
 
+def _plain(text: str) -> str:
+    """Docstring text for a terminal: ``literal`` and :role:`target` markup reduced to their words."""
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", text)
+    return " ".join(re.sub(r"``([^`]+)``", r"\1", text).split())
+
+
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``mbimpact fit`` on the CLI's subparsers; its ``func`` is :func:`run`."""
     from ..calibration import FAMILIES
 
     p = subparsers.add_parser("fit", help="fit impact laws to a data table (CSV) and compare them",
-                              description=__doc__.split("\n\n")[0] if __doc__ else None)
+                              description=_plain(__doc__.split("\n\n")[0]) if __doc__ else None)
     p.add_argument("data", help="table CSV (see mbimpact.calibration.table), or a shipped name: kharaz2001, "
                                 "grant_tabakoff1975")
     p.add_argument("--law", action="append",
@@ -230,6 +332,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--starts", type=int, help="starting points per fit (default: 1 convex, 4 otherwise)")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the random starting points (an integer ≥ 0)")
     p.add_argument("--out", help="directory for <table>_fit.csv, <table>_predictions.csv and <table>_fit.png")
+    p.add_argument("--no-progress", action="store_true", help="do not draw the progress bar")
     p.set_defaults(func=run)
     return p
 
@@ -246,7 +349,8 @@ def run(args: argparse.Namespace) -> int:
         raise ParameterError(f"--speed must be a positive number of m/s, got {args.speed}")
     if args.starts is not None and args.starts < 1:
         raise ParameterError(f"--starts must be ≥ 1, got {args.starts}")
-    fits = fit_laws(table, _laws(args.law), body, args.speed, args.starts, args.seed)
+    fits = fit_laws(table, _laws(args.law), body, args.speed, args.starts, args.seed,
+                    progress=not getattr(args, "no_progress", False))
     print(format_report(table, fits))
     if args.out:
         out = Path(args.out)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -151,6 +151,7 @@ def fit(
     seed: int | None = 0,
     max_nfev: int = 50,
     tol: float = 1e-5,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Fit:
     """Fit the parameters of ``law`` to ``table`` by least squares.
 
@@ -190,6 +191,8 @@ def fit(
         (``ftol`` and ``xtol`` of ``least_squares``), in [machine epsilon, 1); the compliant facets'
         integration makes the residuals noisy (~1e-6 to 1e-5 of the predictions), so much tighter
         is pointless.
+    progress : callable, optional
+        Called as ``progress(done, starts)`` after each starting point has been optimised.
 
     Returns
     -------
@@ -267,11 +270,13 @@ def fit(
     rng = np.random.default_rng(_seed(seed))
     points = [x0] + [rng.uniform(lo, hi) for _ in range(n_starts - 1)]
     best = None
-    for point in points:
+    for k, point in enumerate(points, 1):
         res = least_squares(residual, point, bounds=(lo, hi), x_scale="jac", diff_step=DIFF_STEP, ftol=tol,
                             xtol=tol, gtol=1e-10, max_nfev=max_nfev)
         if best is None or res.cost < best.cost:
             best = res
+        if progress is not None:
+            progress(k, len(points))
     assert best is not None
     x = best.x
     fitted = build(x)

@@ -2,24 +2,34 @@
 
 Some laws and averaging methods run their inner loops in modules compiled by numba
 (``@njit(cache=True)``). Importing numba costs ~0.3 s, more than ``import mbimpact`` may take, so
-each such module is imported by its :class:`KernelModule` on first use; numba then loads the
-machine code from its on-disk cache, or compiles it once after an install. :func:`compile_kernels`
-does this ahead of time for every kernel module of the package and says what each cost.
+each such module is imported by its :class:`KernelModule` on first use. Its entry points are declared
+with :func:`kernel`: one explicit signature each, compiled on the first call that reaches the entry
+point (numba loads the machine code from its on-disk cache, or compiles it once after an install), so
+that a command compiles what it runs and nothing else. Where that compilation takes a while, one line
+on stderr says so, once per process (:func:`compile_notice`). :func:`compile_kernels` makes every
+kernel of the package ready ahead of time and says what each module cost.
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib
+import os
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from types import ModuleType
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KernelModule", "KERNELS", "compile_kernels", "kernel_array"]
+__all__ = ["KernelModule", "KERNELS", "compile_kernels", "kernel_array", "kernel", "compile_notice",
+           "NOTICE_SECONDS"]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 
 class KernelModule:
@@ -29,7 +39,7 @@ class KernelModule:
     ----------
     name : str
         Full module name. The module defines ``jit_seconds() -> float``: it calls each of its
-        kernels once (numba then loads or compiles them) and returns the wall time that took.
+        entry points once (numba then loads or compiles them) and returns the wall time that took.
 
     Registered in :data:`KERNELS` under ``name``.
     """
@@ -45,7 +55,7 @@ class KernelModule:
 
     @property
     def ready(self) -> bool:
-        """Whether the kernels are loaded in this process."""
+        """Whether the module is imported in this process (its entry points compile on first call)."""
         return self._module is not None
 
     @property
@@ -65,12 +75,11 @@ class KernelModule:
             self._module, self._entries = saved, entries
 
     def get(self) -> ModuleType:
-        """The kernel module, made ready first if needed (:meth:`compile`)."""
+        """The kernel module, imported first if needed; each entry point compiles (or loads from numba's
+        cache) on its first call, for its one signature (:func:`kernel`)."""
         module = self._module
         if module is None:
-            self.compile()
-            module = self._module
-            assert module is not None
+            module = self._module = importlib.import_module(self.name)
         return module
 
     def unchecked(self, name: str) -> Callable[..., Any]:
@@ -87,18 +96,19 @@ class KernelModule:
         """
         entry = self._entries.get(name)
         if entry is None:
-            kernel = getattr(self.get(), name)
-            signatures = getattr(kernel, "signatures", None)
-            if signatures is None:  # interpreted: the function itself
-                entry = kernel
+            function = getattr(self.get(), name)
+            if not hasattr(function, "signatures"):  # interpreted: the function itself
+                entry = function
             else:  # a kernel of the package, compiled for its one explicit signature
+                getattr(function, "ensure_compiled", lambda: None)()
+                signatures = function.signatures
                 assert len(signatures) == 1, f"{self.name}.{name}: {len(signatures)} signatures"
-                entry = kernel.overloads[signatures[0]].entry_point
+                entry = function.overloads[signatures[0]].entry_point
             self._entries[name] = entry
         return entry
 
     def compile(self) -> tuple[float, float]:
-        """Import the module and make its kernels callable; time both.
+        """Import the module and make every entry point of it callable; time both.
 
         Returns
         -------
@@ -106,14 +116,147 @@ class KernelModule:
             Wall times of the import (numba's, mostly, in a fresh process) and of loading the
             kernels' machine code from numba's cache, or compiling it when the cache is missing or
             stale (set ``NUMBA_CACHE_DIR`` to an empty directory to time a cold compilation). Their
-            sum is what the first call of a process pays; both are ~0 once done.
+            sum is what the first calls of a process pay if they reach every entry point; both are
+            ~0 once done.
         """
         start = time.perf_counter()
         module = importlib.import_module(self.name)
         imported = time.perf_counter() - start
-        jitted = float(module.jit_seconds())
+        with compile_notice(self.name):
+            jitted = float(module.jit_seconds())
         self._module = module
         return imported, jitted
+
+
+#: Seconds of compiling after which :func:`compile_notice` says, on stderr, what is being compiled.
+NOTICE_SECONDS = 1.5
+
+# whether the notice was printed in this process, and how deep compile_notice contexts are nested
+_notice = {"printed": False, "depth": 0}
+_notice_lock = threading.Lock()
+
+
+def _cache_dir(module: str) -> str:
+    """Where numba keeps the machine code of ``module``'s kernels: ``NUMBA_CACHE_DIR``, else the
+    ``__pycache__`` next to the module's source (numba's choice where that is writable)."""
+    configured = os.environ.get("NUMBA_CACHE_DIR", "")
+    if configured:
+        return configured
+    source = getattr(sys.modules.get(module), "__file__", None)
+    return os.path.join(os.path.dirname(source), "__pycache__") if source else "numba's cache directory"
+
+
+def _print_notice(what: str, where: str) -> None:
+    with _notice_lock:
+        if _notice["printed"]:
+            return
+        _notice["printed"] = True
+    print(f"mbimpact: compiling numba kernels for {what} (once; cached on disk in {where}) …", file=sys.stderr,
+          flush=True)
+
+
+@contextlib.contextmanager
+def compile_notice(what: str, module: str | None = None) -> Iterator[None]:
+    """A context that compiles kernels: if it lasts longer than :data:`NOTICE_SECONDS`, one line on
+    stderr says what is being compiled and where numba caches it, once per process (a fresh install
+    compiles for seconds, silently otherwise). Quick compilations and loads from the cache print
+    nothing; nested contexts count as the outermost.
+
+    Parameters
+    ----------
+    what : str
+        What is compiled (a kernel or a kernel module).
+    module : str, optional
+        The module whose cache directory the line names; ``what`` if not given.
+    """
+    with _notice_lock:
+        outermost = _notice["depth"] == 0 and not _notice["printed"]
+        _notice["depth"] += 1
+    timer = None
+    if outermost:
+        timer = threading.Timer(NOTICE_SECONDS, _print_notice, (what, _cache_dir(module or what)))
+        timer.daemon = True
+        timer.start()
+    try:
+        yield
+    finally:
+        if timer is not None:
+            timer.cancel()
+        with _notice_lock:
+            _notice["depth"] -= 1
+
+
+@functools.cache
+def _lazy_dispatcher() -> type:
+    """The numba dispatcher class of :func:`kernel` (numba imported on first use)."""
+    from numba.core import typeinfer
+    from numba.core.compiler_lock import global_compiler_lock
+    from numba.core.registry import CPUDispatcher
+
+    base: Any = CPUDispatcher  # numba's private hooks below are not in its annotations
+
+    class LazyKernel(base):
+        """A numba dispatcher for one explicit signature, compiled when first reached: by a call from
+        Python, or by the compilation of a kernel that calls it."""
+
+        _signature: Any = None
+
+        def ensure_compiled(self) -> None:
+            """Compile (or load from numba's cache) the signature, and no other, if not done yet."""
+            with global_compiler_lock:  # a batch's first calls may come from several threads at once
+                if self._can_compile and self._signature is not None:
+                    f = self.py_func
+                    with compile_notice(f"{f.__module__}.{f.__qualname__}", f.__module__), \
+                            typeinfer.register_dispatcher(self):
+                        self.compile(self._signature)
+                    self.disable_compile()
+
+        def get_call_template(self, args: Any, kws: Any) -> Any:  # typing a call from compiled code
+            self.ensure_compiled()
+            return super().get_call_template(args, kws)
+
+        def _compile_for_args(self, *args: Any, **kws: Any) -> Any:  # a call from Python: the code to call
+            if not self._can_compile or self._signature is None:
+                return super()._compile_for_args(*args, **kws)
+            self.ensure_compiled()
+            # the signature's machine code where the arguments convert to it (as numba's dispatch picks
+            # it from now on), else numba's TypeError
+            if not kws and self._search_new_conversions(*args):
+                return self.overloads[self.signatures[0]].entry_point
+            return self._explain_matching_error(*args)
+
+    return LazyKernel
+
+
+def kernel(signature: Any, **options: Any) -> Callable[[_F], _F]:
+    """``numba.njit(signature, cache=True, **options)``, compiled when first reached rather than on import.
+
+    A kernel module's entry points have one explicit signature each: a call with arrays of other
+    layouts or flags is converted to it rather than compiled again. numba compiles explicit signatures
+    when the decorator runs; this one waits for the first call from Python, or for the compilation of a
+    kernel that calls it, so that importing the module compiles nothing and a command compiles the
+    entry points it reaches (:func:`compile_notice` says so where that takes a while). With
+    ``NUMBA_DISABLE_JIT=1``, the function itself.
+
+    Parameters
+    ----------
+    signature : numba signature
+        The one signature of the entry point.
+    **options
+        numba's options (``error_model``, ``nogil``, ``fastmath``, …).
+    """
+    def wrap(function: _F) -> _F:
+        from numba.core import config
+
+        if getattr(config, "DISABLE_JIT", False):
+            return function
+        dispatcher = _lazy_dispatcher()(py_func=function, locals={},
+                                        targetoptions={"nopython": True, "boundscheck": None, **options})
+        dispatcher._signature = signature
+        dispatcher.enable_caching()
+        return dispatcher
+
+    return wrap
 
 
 def kernel_array(a: NDArray[np.float64]) -> NDArray[np.float64]:

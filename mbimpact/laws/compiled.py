@@ -21,7 +21,7 @@ then names the error or treats the case.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,7 +38,7 @@ from ..results.quantities import SEPARATION_RTOL
 if TYPE_CHECKING:
     from .base import ImpactLaw
 
-__all__ = ["CompiledImpact", "finish_prepared", "RANK_FLOOR", "DECLINED", "NOT_PREPARED"]
+__all__ = ["CompiledImpact", "finish_prepared", "RANK_FLOOR", "DECLINED", "NOT_PREPARED", "PEAKED"]
 
 #: det W / (tr W)³ at or below which W may be rank-deficient (ContactMetric.range_projector's screen; the
 #: compiled metric keeps W where λ_min > :data:`mbimpact.metric.kernels.FULL_RANK_RATIO` tr W).
@@ -48,6 +48,9 @@ RANK_FLOOR = 1e-12
 DECLINED = -1
 #: Status of a compiled impact the metric did not prepare: the pipeline on ContactMetric names or treats it.
 NOT_PREPARED = -2
+#: Status of a compiled impact compiled without some of its law's steps, for a velocity that needs them:
+#: :attr:`CompiledImpact.whole` runs it (:mod:`mbimpact.laws.compiled_cone`).
+PEAKED = -3
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,7 +60,8 @@ class CompiledImpact:
     The kernels follow one convention. ``single(U, D, J, v, R, degenerate, rank_floor, *args, buf)``
     returns ``(status, nodes, error, speed, w_scale, un_plus, finite)``: status k ≥ 0 when settled by the
     k-th of ``methods`` (the result in ``buf``, :func:`mbimpact.metric.kernels.single_size`),
-    :data:`DECLINED` or :data:`NOT_PREPARED`; |u₋|, tr(RᵀWR), n⁰ · u₊ and whether P, v₊, u₊ are finite.
+    :data:`DECLINED`, :data:`NOT_PREPARED` or, from a ``single`` that leaves steps to ``whole``, :data:`PEAKED`;
+    |u₋|, tr(RᵀWR), n⁰ · u₊ and whether P, v₊, u₊ are finite.
     ``batch(U, D, J, V, R, degenerate, rank_floor, *args, buf, status, nodes, stats)`` does the same for
     B rows at their own configurations, each row what ``single`` gives it (stats: error, speed, w_scale,
     un_plus, finite as 1.0 or 0.0), and releases the GIL.
@@ -80,6 +84,12 @@ class CompiledImpact:
         Whether :meth:`run_stack` runs the batch kernel on other threads while the rows are gathered:
         False where the kernel costs a row less than Pinocchio's work to gather it (Newton's one solve),
         so that handing blocks between threads would cost more than it overlaps.
+    whole : str or None
+        A kernel of every step of the law, where ``single`` is the same impact compiled without some (those
+        that take the most compiling and that few velocities reach): the first velocity ``single`` returns
+        :data:`PEAKED` for is run by ``whole``, which :meth:`run` then calls in its place (``whole`` compiles
+        only if a velocity needs it; for a velocity both settle, both are the same arithmetic; ``single``
+        never returns PEAKED where ``whole`` is None).
     """
 
     kernels: KernelModule
@@ -89,6 +99,12 @@ class CompiledImpact:
     methods: tuple[str, ...]
     front: Callable[..., int] | None = None
     overlap: bool = True
+    whole: str | None = None
+    # the single kernel that run calls: single, until a velocity needs whole
+    _in_use: list[str] = field(default_factory=list, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._in_use.append(self.single)
 
     def run(self, law: ImpactLaw, A: NDArray[np.float64], U: NDArray[np.float64], D: NDArray[np.float64],
             J: NDArray[np.float64], v: NDArray[np.float64], R: NDArray[np.float64], trusted: bool
@@ -96,10 +112,15 @@ class CompiledImpact:
         """The impact at the factor A = U D Uᵀ, contact Jacobian ``J`` (3, n), velocity ``v`` (n,) and frame
         ``R`` (3, 3), or None where the metric does not prepare it. ``trusted``: the arrays are the compiled
         front end's, of the kernel's types (numba's dispatch is skipped: :meth:`KernelModule.unchecked`)."""
-        call = self.kernels.unchecked(self.single) if trusted else getattr(self.kernels.get(), self.single)
+        name = self._in_use[0]
+        call = self.kernels.unchecked(name) if trusted else getattr(self.kernels.get(), name)
         buffer = np.empty(6 * len(v) + 33)  # mbimpact.metric.kernels.single_size
         status, nodes, error, speed, w_scale, un_plus, finite = call(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *self.args,
                                                                      buffer)
+        if status == PEAKED:  # from now on this compiled impact runs every step
+            assert self.whole is not None
+            self._in_use[0] = self.whole
+            return self.run(law, A, U, D, J, v, R, trusted)
         if status >= 0:
             return _result(law, A, J, buffer, speed, finite, un_plus, error, nodes, self.methods[status])
         if status == DECLINED:
@@ -126,6 +147,7 @@ class CompiledImpact:
             (:func:`mbimpact.common.threads.over_rows`).
         """
         kernel = getattr(self.kernels.get(), self.batch)
+        getattr(kernel, "ensure_compiled", lambda: None)()  # here, before other threads call it
         B, n = V.shape
         # stats zeroed: a row the kernel leaves (not prepared) is read too, and must hold no NaN
         buffer, status, nodes, stats = np.empty((B, 6 * n + 33)), np.empty(B, np.int64), np.empty(B, np.int64), \

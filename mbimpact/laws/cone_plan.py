@@ -56,7 +56,8 @@ def _cone_plan(spec: AveragingSpec, steps: tuple[int, ...], n: int, levels: int,
             levels, cone.rule_table(pole_n, pole_levels), pole_levels, spec.flux == "configuration", spec.e, spec.rtol)
     names = tuple(f"{name}[compiled]" if name != "poles" else name
                   for name in (_STEP_NAMES[step] for step in steps))
-    return CompiledImpact(KERNELS, "cone_impact", "cone_batch", args, names)
+    # the single impact without the pole and graded rules until a velocity needs them
+    return CompiledImpact(KERNELS, "cone_unpeaked", "cone_batch", args, names, whole="cone_impact")
 
 
 # the rules of the compiled steps (mbimpact.averaging.compiled.codes), as results name them

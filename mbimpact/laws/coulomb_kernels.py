@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ..common.compiled import kernel
 from ..metric.kernels import READY, finish_into, prepare_into, single_size
 from .coulomb_core import (BAD_TRACE, CAN_STICK, COMP, D, DEGENERATE, DET, ENERGETIC, FREE, INFINITE, INFO, JAMMED,
                            LAW_SIZE, MAX_PHASES, MODES, MU, NEWTON, NO_END, OUT_OF_REACH, P, PC, POISSON, PT1, PT2,
@@ -88,7 +89,7 @@ _ROWS = types.Tuple((types.int64, types.int64, types.int64, types.float64, types
                      types.float64))(_ANY2, _LAW, _ANY2, types.float64[:, ::1], types.float64[::1])
 
 
-@njit(_ROWS, cache=True, error_model="numpy")
+@kernel(_ROWS, error_model="numpy")
 def impact_rows(W: NDArray[np.float64], law: tuple[float, ...], U: NDArray[np.float64], out: NDArray[np.float64],
                 error: NDArray[np.float64]) -> tuple[int, int, int, float, float, float, float]:  # pragma: no cover
     """Impacts from the unit velocities ``U`` (B, d), local frame, at the Delassus matrix ``W`` (d, d).
@@ -157,7 +158,7 @@ _SINGLE = types.Tuple((_I, _I, _F, _F, _F, _F, types.boolean))(_IN2, _IN1, _IN2,
 _BATCH = types.none(_IN3, _IN2, _IN3, _IN2, _IN3, _F, _F, _LAW, _OUT2, types.int64[::1], types.int64[::1], _OUT2)
 
 
-@njit(_SINGLE, cache=True, error_model="numpy")
+@kernel(_SINGLE, error_model="numpy")
 def coulomb_impact(U: NDArray[np.float64], D_: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
                    R: NDArray[np.float64], degenerate: float, rank_floor: float, law: tuple[float, ...],
                    buf: NDArray[np.float64]) -> tuple[int, int, float, float, float, float, bool]:  # pragma: no cover
@@ -183,7 +184,7 @@ def coulomb_impact(U: NDArray[np.float64], D_: NDArray[np.float64], J: NDArray[n
     return _impact_into(U, D_, J, v, R, degenerate, rank_floor, law, buf, np.empty((1, 3)), np.zeros(ROW_SIZE))
 
 
-@njit(_BATCH, cache=True, error_model="numpy", nogil=True)
+@kernel(_BATCH, error_model="numpy", nogil=True)
 def coulomb_batch(U: NDArray[np.float64], D_: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
                   R: NDArray[np.float64], degenerate: float, rank_floor: float, law: tuple[float, ...],
                   buf: NDArray[np.float64], status: NDArray[np.int64], nodes: NDArray[np.int64],
@@ -201,12 +202,14 @@ def coulomb_batch(U: NDArray[np.float64], D_: NDArray[np.float64], J: NDArray[np
 
 
 def jit_seconds() -> float:
-    """Wall time to make the kernels callable in this process (numba's import excluded: importing this
-    module compiles their explicit signatures, or loads them from numba's on-disk cache)."""
+    """Wall time to make the three kernels callable in this process (numba's import excluded): their machine
+    code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
     start = time.perf_counter()
     law = (0.5, 0.5, float(ENERGETIC), 1e-10, 1e-14, 1e-12, 1e-2, 64.0, 100.0, 1e-12, 1e-14)
     impact_rows(np.eye(3) / 3.0, law, np.array([[0.6, 0.0, -0.8]]), np.empty((1, 3)), np.empty(1))
     n = 3
     Uf, Df, J, v, R = np.eye(n), np.ones(n), np.eye(n), -np.ones(n), np.eye(3)
     coulomb_impact(Uf, Df, J, v, R, 1e-14, 1e-12, law, np.empty(single_size(n)))
+    coulomb_batch(Uf[None], Df[None], J[None], v[None], R[None], 1e-14, 1e-12, law, np.empty((1, single_size(n))),
+                  np.empty(1, np.int64), np.empty(1, np.int64), np.empty((1, 5)))
     return time.perf_counter() - start

@@ -6,8 +6,8 @@ P_n = −(1 + e) n⁰ᵀJ v / (n⁰ᵀJ y): no Delassus matrix. :func:`newton_im
 :class:`mbimpact.laws.compiled.CompiledImpact`. A (nearly) rank-deficient J stays here: Newton's impulse
 is P_n n⁰ whatever the rank, and Δv = P_n y is exact.
 
-Imported on first use (numba costs ~0.3 s to import); the import compiles the explicit signatures, or
-loads them from numba's disk cache.
+Imported on first use (numba costs ~0.3 s to import); each kernel compiles its explicit signature, or
+loads it from numba's disk cache, on its first call (:func:`mbimpact.common.compiled.kernel`).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ..common.compiled import kernel
 from ..metric.kernels import pivots_valid, single_size, solve_factor
 
 __all__ = ["newton_impact", "newton_batch", "jit_seconds"]
@@ -88,7 +89,7 @@ def _impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float6
     return math.isfinite(total), un_plus
 
 
-@njit(_SINGLE, cache=True, error_model="numpy")
+@kernel(_SINGLE, error_model="numpy")
 def newton_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
                   R: NDArray[np.float64], degenerate: float, rank_floor: float, e: float, buf: NDArray[np.float64]
                   ) -> tuple[int, int, float, float, float, float, bool]:  # pragma: no cover — compiled
@@ -121,7 +122,7 @@ def newton_impact(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.
     return _SETTLED, 1, 0.0, 1.0, 1.0, un_plus, True
 
 
-@njit(_BATCH, cache=True, error_model="numpy", nogil=True)
+@kernel(_BATCH, error_model="numpy", nogil=True)
 def newton_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], V: NDArray[np.float64],
                  R: NDArray[np.float64], degenerate: float, rank_floor: float, e: float, buf: NDArray[np.float64],
                  status: NDArray[np.int64], nodes: NDArray[np.int64], stats: NDArray[np.float64]
@@ -136,8 +137,8 @@ def newton_batch(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.f
 
 
 def jit_seconds() -> float:
-    """Wall time of one call of each kernel once the module is imported: ~0, since the import compiles
-    the explicit signatures, or loads them from numba's on-disk cache."""
+    """Wall time to make both kernels callable in this process (numba's import excluded): their machine
+    code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
     start = time.perf_counter()
     U, D, J, v, R = np.eye(3), np.ones(3), np.eye(3), -np.ones(3), np.eye(3)
     newton_impact(U, D, J, v, R, 1e-14, 1e-12, 0.5, np.empty(single_size(3)))

@@ -24,6 +24,7 @@ from ..common.validation import FLOAT64, as_array, as_vector
 from ..errors import FrameNotFoundError, ParameterError, RobotNotFoundError
 from . import front
 from .mass_factor import MassFactor, new_token, pivots_valid
+from .parse import parse_file
 from .robots import close_matches, file_path, model_path, robot_urdf
 
 if TYPE_CHECKING:  # the geometry layer is imported on use: frame contacts never load it
@@ -77,6 +78,10 @@ class Mechanism:
         Pinocchio calls ``model.createData()``. Impact results never depend on it afterwards."""
         return self.workspace().data
 
+    def __repr__(self) -> str:  # the model's own text lists every joint, frame and inertia
+        floating = self.model.njoints > 1 and self.model.joints[1].shortname() == "JointModelFreeFlyer"
+        return f"Mechanism({self.name!r}, nq={self.nq}, nv={self.nv}, floating={floating}, frames={len(self.model.frames)})"
+
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         # the workspace is per thread and per process: rebuild it on unpickling
         return (type(self), (self.model, self.name, self.source))
@@ -96,7 +101,9 @@ class Mechanism:
         Raises
         ------
         RobotNotFoundError
-            The file is missing or cannot be parsed.
+            The file is missing.
+        URDFError
+            The file cannot be parsed (the message gives the parser's complaint).
         """
         def build(file: str) -> Any:
             return pin.buildModelFromUrdf(file, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromUrdf(file)
@@ -153,7 +160,9 @@ class Mechanism:
         Raises
         ------
         RobotNotFoundError
-            The file is missing or cannot be parsed.
+            The file is missing.
+        URDFError
+            The file cannot be parsed.
         """
         import warnings
 
@@ -175,11 +184,7 @@ class Mechanism:
         path = file_path(kind, path)
         if not path.is_file():
             raise RobotNotFoundError(f"{kind} file {str(path)!r} not found")
-        try:
-            model = build(str(path))
-        except (RuntimeError, ValueError) as exc:
-            raise RobotNotFoundError(f"could not parse {kind} {str(path)!r}: {exc}") from exc
-        return cls(model, name or path.stem, path)
+        return cls(parse_file(kind, build, path), name or path.stem, path)
 
     # ------------------------------------------------------------ dimensions
     @property

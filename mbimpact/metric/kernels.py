@@ -13,8 +13,9 @@ the laws take (unit speed, W of unit trace, local frame), and :func:`finish` the
 Both work in one buffer whose head is the result (:meth:`mbimpact.ImpactResult.from_buffer`).
 
 Imported on first use only (:data:`mbimpact.metric.delassus.KERNELS`): numba costs ~0.3 s to
-import, and the import compiles the kernels' explicit signatures (or loads them from numba's disk
-cache). Run with ``NUMBA_DISABLE_JIT=1``, the same source runs interpreted.
+import. Each kernel compiles its explicit signature (or loads it from numba's disk cache) on its first
+call (:func:`mbimpact.common.compiled.kernel`). Run with ``NUMBA_DISABLE_JIT=1``, the same source runs
+interpreted.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ import time
 import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
+
+from ..common.compiled import kernel
 
 __all__ = ["delassus", "prepare_factor", "prepare_metric", "finish", "single_size", "local_views", "solve_factor",
            "pivots_valid", "world_delassus", "prepare_into", "finish_into", "jit_seconds", "READY", "DECLINED", "U_NOT_FINITE",
@@ -43,7 +46,7 @@ READY, DECLINED, U_NOT_FINITE, SPEED_INF, NEAR_SINGULAR = 0, 1, 2, 3, 4
 #: is rebuilt when this file changes.)
 FULL_RANK_RATIO = 1e-11
 
-# Explicit signatures, compiled (or loaded from the cache) on import: read-only arrays of any layout, so
+# Explicit signatures, compiled (or loaded from the cache) on first use: read-only arrays of any layout, so
 # that one machine code serves every caller (a frozen metric's J, Pinocchio's column-major U, a user's
 # read-only v); numba would otherwise compile a specialisation, for seconds, at the first call of each.
 _IN1, _IN2 = types.Array(types.float64, 1, "A", readonly=True), types.Array(types.float64, 2, "A", readonly=True)
@@ -134,7 +137,7 @@ def _delassus_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     return math.isfinite(check) and total < _HALF_MAX
 
 
-@njit(_DELASSUS, cache=True, error_model="numpy")
+@kernel(_DELASSUS, error_model="numpy")
 def delassus(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64]
              ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:  # pragma: no cover — compiled
     """A⁻¹Jᵀ (as its transpose) and W = J A⁻¹ Jᵀ for A = U D Uᵀ.
@@ -250,7 +253,7 @@ def prepare_into(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.f
     return _state(J, v, R, degenerate, rank_floor, buf)
 
 
-@njit(_PREPARE_FACTOR, cache=True, error_model="numpy")
+@kernel(_PREPARE_FACTOR, error_model="numpy")
 def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
                    R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
                    ) -> tuple[int, float, float]:  # pragma: no cover — compiled
@@ -291,7 +294,7 @@ def prepare_factor(U: NDArray[np.float64], D: NDArray[np.float64], J: NDArray[np
     return prepare_into(U, D, J, v, R, degenerate, rank_floor, buf)
 
 
-@njit(_PREPARE_METRIC, cache=True, error_model="numpy")
+@kernel(_PREPARE_METRIC, error_model="numpy")
 def prepare_metric(Yt: NDArray[np.float64], W: NDArray[np.float64], J: NDArray[np.float64], v: NDArray[np.float64],
                    R: NDArray[np.float64], degenerate: float, rank_floor: float, buf: NDArray[np.float64]
                    ) -> tuple[int, float, float]:  # pragma: no cover — compiled
@@ -333,7 +336,7 @@ def finish_into(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: flo
     return math.isfinite(total), un_plus
 
 
-@njit(_FINISH, cache=True, error_model="numpy")
+@kernel(_FINISH, error_model="numpy")
 def finish(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, buf: NDArray[np.float64]
            ) -> tuple[bool, float]:  # pragma: no cover — compiled
     """The impact's outcome by Lagrange's equations (1.1) from a law's local unit impulse.
@@ -360,8 +363,8 @@ def finish(P_local: NDArray[np.float64], R: NDArray[np.float64], scale: float, b
 
 
 def jit_seconds() -> float:
-    """Wall time of one call of each kernel once the module is imported: ~0, since the import itself
-    compiles the explicit signatures, or loads them from numba's on-disk cache."""
+    """Wall time to make the four kernels callable in this process (numba's import excluded): their machine
+    code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
     start = time.perf_counter()
     U, D, J, v, R = np.eye(3), np.ones(3), np.eye(3), -np.ones(3), np.eye(3)
     delassus(U, D, J)

@@ -14,6 +14,7 @@ over a base area dA weighs dA / cos α): see :mod:`mbimpact.theory`, §3.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import ClassVar
@@ -22,10 +23,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..common.geometry import scaled_norm
-from ..common.validation import as_array
+from ..common.validation import as_array, as_scalar
 from ..errors import ParameterError, RoughnessError
 
-__all__ = ["Roughness", "FiniteRoughness", "Rule", "check_normals", "check_weights"]
+__all__ = ["Roughness", "FiniteRoughness", "Rule", "check_normals", "check_weights", "check_tilt"]
 
 #: A quadrature rule, ``rule(U (B, d), nodes) -> (normals, weights)`` as :meth:`Roughness.rule_batch`.
 Rule = Callable[[NDArray[np.float64], int], tuple[NDArray[np.float64], NDArray[np.float64]]]
@@ -149,6 +150,14 @@ class FiniteRoughness(Roughness):
     def sample(self, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
         m, w = self.facets()
         return m[rng.choice(len(w), size=count, p=w)]
+
+
+def check_tilt(name: str, alpha: object) -> float:
+    """A facet tilt in [0, π/2) rad: a facet at π/2 would be vertical, its normal in the base surface."""
+    value = as_scalar(name, alpha, -math.inf, math.inf)
+    if not 0.0 <= value < math.pi / 2:
+        raise ParameterError(f"{name} must satisfy 0 ≤ {name} < π/2 rad ({math.pi / 2:.5g}); got {value:g} rad")
+    return value
 
 
 def check_normals(name: str, normals: ArrayLike) -> NDArray[np.float64]:

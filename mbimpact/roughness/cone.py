@@ -12,8 +12,7 @@ from numpy.typing import NDArray
 
 from ..quadrature.graded import graded_azimuth_rule, ring_minima, ring_width_bound
 from ..quadrature.rules import azimuth_rule
-from ..common.validation import as_scalar
-from .base import Roughness, Rule
+from .base import Roughness, Rule, check_tilt
 
 __all__ = ["Cone"]
 
@@ -43,7 +42,7 @@ class Cone(Roughness):
     methods: ClassVar[tuple[str, ...]] = ("ring", "poles", "graded", "fixed", "adaptive", "monte-carlo")
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "alpha", as_scalar("alpha", self.alpha, 0.0, math.pi / 2, hi_open=True))
+        object.__setattr__(self, "alpha", check_tilt("alpha", self.alpha))
 
     def rule_batch(self, U: NDArray[np.float64], nodes: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         if self.alpha == 0.0:

@@ -9,9 +9,8 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..common.validation import as_scalar
 from ..errors import ParameterError
-from .base import FiniteRoughness, check_normals, check_weights
+from .base import FiniteRoughness, check_normals, check_tilt, check_weights
 
 __all__ = ["Smooth", "Sawtooth", "Facets"]
 
@@ -50,7 +49,7 @@ class Sawtooth(FiniteRoughness):
     dim: ClassVar[int | None] = 2
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "alpha", as_scalar("alpha", self.alpha, 0.0, math.pi / 2, hi_open=True))
+        object.__setattr__(self, "alpha", check_tilt("alpha", self.alpha))
 
     def facets(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         s, c = math.sin(self.alpha), math.cos(self.alpha)

@@ -18,3 +18,14 @@ from .trajectory import STATUSES, ContactEvent, ImpactRecord, Trajectory
 
 __all__ = ["Scene", "SceneContact", "SceneCollision", "PD", "Surface", "load_scene", "reference", "scene_names", "scene_path",
            "simulate", "Trajectory", "ContactEvent", "ImpactRecord", "STATUSES", "sweep"]
+
+
+def __getattr__(name: str) -> object:
+    """The application of section 4, :mod:`.section4`, reached as an attribute and imported on first use."""
+    if name == "section4":
+        import importlib
+
+        module = importlib.import_module(".section4", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'mbimpact.simulation' has no attribute {name!r}")

@@ -30,6 +30,7 @@ from ..common.validation import as_array, as_count, as_scalar
 from ..errors import ImpactError, SceneError
 from ..mechanism.mechanism import Mechanism
 from .scene_contacts import SceneCollision, SceneContact, collision_gap
+from .scene_keys import accepts_file_keys, pd_keys, scene_keys
 from .surfaces import scene_errors
 
 __all__ = ["Scene", "PD", "scene_names", "scene_path", "SIMULTANEOUS_RULES"]
@@ -44,11 +45,13 @@ DAMPING_MAX = 1e6
 SIMULTANEOUS_RULES = ("auto", "newton", "rough", "compliant", "sequential")
 
 
+@accepts_file_keys(pd_keys)
 @dataclass(frozen=True, eq=False)
 class PD:
     """Joint-space PD torques τ = kp (q_ref − q) − kd v on the actuated joints (a declared force).
 
-    ``q_ref`` has the mechanism's nq entries; on a floating base the free-flyer part is ignored.
+    ``q_ref`` (the scene file's ``q``) has the mechanism's nq entries; on a floating base the free-flyer
+    part is ignored.
     """
 
     kp: float
@@ -65,9 +68,15 @@ class PD:
         object.__setattr__(self, "q_ref", as_array("q_ref", self.q_ref, 1))
 
 
+@accepts_file_keys(scene_keys)
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything a simulation needs, and nothing it does not declare.
+
+    Besides its fields, a Scene takes the keys of a scene file (:mod:`.scene_keys`): ``q``, ``v`` and
+    ``posture`` (default: neutral, at rest), the keys of ``[forces]`` and ``[simulation]``, ``states``, those
+    tables as dicts, ``mechanism`` as the ``[mechanism]`` table, ``contacts`` as ``[[contacts]]`` tables
+    (with ``obstacles``).
 
     Parameters
     ----------
@@ -280,19 +289,32 @@ def scene_names() -> list[str]:
 
 
 def scene_path(name: str | Path) -> Path:
-    """A shipped scene by name, or a path to a TOML file."""
+    """A scene file: an existing file at ``name`` (whatever its suffix), else a shipped scene by name.
+
+    Raises
+    ------
+    SceneError
+        Neither: the message suggests the shipped scenes whose names are close to ``name``.
+    """
+    import difflib
+
     from ..mechanism.robots import models_dir
 
     if not isinstance(name, (str, Path)):  # Path() raises TypeError on None, numbers, ...
         raise SceneError(f"a scene is a shipped scene's name ({', '.join(scene_names())}) or the path of a TOML "
                          f"file, got {type(name).__name__}")
     p = Path(name)
-    if p.suffix == ".toml" and _is_file(p):
+    if _is_file(p):
         return p
     shipped = models_dir() / "scenes" / f"{name}.toml"
-    if _is_file(shipped):
+    if p.name == str(name) and _is_file(shipped):
         return shipped
-    raise SceneError(f"scene {str(name)!r} not found; shipped scenes: {', '.join(scene_names())}")
+    names = scene_names()
+    bare = p.name == str(name)  # a name, not a path into a directory: it may be a shipped scene's, mistyped
+    close = difflib.get_close_matches(p.stem if p.suffix == ".toml" else p.name, names, n=3, cutoff=0.6) if bare else []
+    hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
+    raise SceneError(f"scene {str(name)!r} not found: no such file, and no shipped scene of that name; {hint}"
+                     f"shipped scenes: {', '.join(names)}")
 
 
 def _is_file(p: Path) -> bool:

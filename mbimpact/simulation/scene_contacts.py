@@ -15,6 +15,7 @@ from ..errors import SceneError
 from ..geometry.shapes import Shape
 from ..laws.base import ImpactLaw
 from ..mechanism.mechanism import Mechanism
+from .scene_keys import accepts_file_keys, collision_keys, contact_keys
 from .surfaces import Surface, scene_errors
 
 __all__ = ["SceneContact", "SceneCollision", "unit_tangent", "collision_gap"]
@@ -52,6 +53,7 @@ def unit_tangent(tangent: ArrayLike, normal: NDArray[np.float64] | None = None) 
     return t / length
 
 
+@accepts_file_keys(contact_keys)
 @dataclass(frozen=True, eq=False)
 class SceneContact:
     """A point of the mechanism, the surface it strikes, its impact law and its persistent contact.
@@ -73,6 +75,11 @@ class SceneContact:
     stiffness : float
         Kelvin–Voigt stiffness M of (2.3) used by the "compliant" rule for contacts that
         strike together.
+
+    The keys of a scene file's ``[[contacts]]`` table are accepted too (:mod:`.scene_keys`): ``law`` by
+    name with ``e``, ``k``, ``roughness``, ``flux``, ``facet``, ``mu``, ``restitution``, and ``surface`` by
+    name with ``normal``, ``origin``, ``rho``, ``motion``; e.g. ``SceneContact(frame="mass", law="newton",
+    e=0.5, friction=0.3, normal=[0, 0, 1], origin=[0, 0, 0])``.
     """
 
     frame: str
@@ -106,6 +113,7 @@ class SceneContact:
         return self.frame
 
 
+@accepts_file_keys(collision_keys)
 @dataclass(frozen=True, eq=False)
 class SceneCollision:
     """Collision objects of the mechanism striking an obstacle, or each other.
@@ -129,6 +137,9 @@ class SceneCollision:
         Or another collision object of the mechanism (self-collision), or ``"all"``.
     friction, tangent, stiffness
         As for :class:`SceneContact`.
+
+    The keys of a scene file's collision contact are accepted too (``law="rough", e=0.5,
+    roughness={"kind": "cone", "alpha": 0.2}``, ...), as for :class:`SceneContact`.
 
     A :class:`Scene` expands every :class:`SceneCollision` into one per pair (``body`` and
     ``other`` single names), each a contact of its own in the trajectory.

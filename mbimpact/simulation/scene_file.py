@@ -24,7 +24,7 @@ from .scene_contacts import SceneCollision, SceneContact
 from .schema import COLLISION_KEYS, FRAME_KEYS, SHAPE_KEYS, SHAPE_NEEDS, check, scene_error
 from .surfaces import Surface
 
-__all__ = ["load_scene"]
+__all__ = ["load_scene", "law_from_keys", "surface_from_keys", "obstacles_from_keys"]
 
 
 class _Reader:
@@ -36,7 +36,9 @@ class _Reader:
     def fail(self, path: list[Any], msg: str) -> SceneError:
         return scene_error(self.source, self.text, path, msg)
 
-    def roughness(self, spec: dict[str, Any], path: list[Any]) -> Roughness:
+    def roughness(self, spec: dict[str, Any] | Roughness, path: list[Any]) -> Roughness:
+        if isinstance(spec, Roughness):  # a scene built in Python may give the measure itself
+            return spec
         kind = spec["kind"]
         needs = {"smooth": set(), "sawtooth": {"alpha"}, "cone": {"alpha"}, "gaussian": {"sigma"}}[kind]
         allowed = needs | ({"dim"} if kind == "gaussian" else set()) | {"kind"}
@@ -55,7 +57,9 @@ class _Reader:
         except ImpactError as exc:
             raise self.fail(path, str(exc)) from exc
 
-    def facet(self, spec: dict[str, Any], e: float | None, path: list[Any]) -> FacetLaw:
+    def facet(self, spec: dict[str, Any] | FacetLaw, e: float | None, path: list[Any]) -> FacetLaw:
+        if isinstance(spec, FacetLaw):
+            return spec
         kind = spec["kind"]
         needs = {"newton": set(), "coulomb": {"mu"}, "compliant": {"mu", "stiffness_ratio"},
                  "hunt-crossley": {"alpha"}}[kind]
@@ -74,7 +78,11 @@ class _Reader:
 
     def law(self, c: dict[str, Any], path: list[Any]) -> ImpactLaw:
         kind = c.get("law", "rough" if "roughness" in c else "newton")
-        speed_law = c.get("facet", {}).get("kind") == "hunt-crossley"
+        facet = c.get("facet", {})
+        if isinstance(facet, FacetLaw) and ("e" in c or "k" in c):
+            raise self.fail(path + ["e" if "e" in c else "k"], "a facet law given as an object carries its own "
+                                                                "restitution: give no e or k with it")
+        speed_law = isinstance(facet, FacetLaw) or facet.get("kind") == "hunt-crossley"
         if speed_law and ("e" in c or "k" in c):
             raise self.fail(path + ["e" if "e" in c else "k"], "a hunt-crossley facet has no e or k: its restitution "
                                                                 "e(v) ≈ 1 − α v follows from alpha")
@@ -148,6 +156,23 @@ class _Reader:
             out[o["name"]] = shape
         return out
 
+    def surface(self, c: dict[str, Any], path: list[Any]) -> Surface:
+        """The surface of a frame contact from its keys surface, normal, origin, rho and motion."""
+        kind = c.get("surface", "plane")
+        if kind == "paraboloid" and "rho" not in c:
+            raise self.fail(path + ["surface"], "a paraboloid needs rho, its radius of curvature on the axis")
+        if kind == "plane" and "rho" in c:
+            raise self.fail(path + ["rho"], "rho applies to surface = 'paraboloid' only")
+        motion = c.get("motion", {})
+        if not isinstance(motion, dict) or set(motion) - {"amplitude", "frequency", "phase"}:
+            raise self.fail(path + ["motion"], "motion is a table of amplitude, frequency and phase")
+        try:
+            return Surface(kind, np.array(c.get("normal", [0.0, 0.0, 1.0])), np.array(c.get("origin", [0.0, 0.0, 0.0])),
+                           c.get("rho", math.inf), motion.get("amplitude", 0.0), motion.get("frequency", 0.0),
+                           motion.get("phase", 0.0))
+        except ImpactError as exc:
+            raise self.fail(path, str(exc)) from exc
+
     def contact(self, c: dict[str, Any], i: int, mech: Mechanism, obstacles: dict[str, Shape]
                 ) -> SceneContact | SceneCollision:
         path: list[Any] = ["contacts", i]
@@ -163,16 +188,8 @@ class _Reader:
             mech.frame_id(c["frame"])
         except ImpactError as exc:
             raise self.fail(path + ["frame"], str(exc)) from exc
-        kind = c.get("surface", "plane")
-        if kind == "paraboloid" and "rho" not in c:
-            raise self.fail(path + ["surface"], "a paraboloid needs rho, its radius of curvature on the axis")
-        if kind == "plane" and "rho" in c:
-            raise self.fail(path + ["rho"], "rho applies to surface = 'paraboloid' only")
-        motion = c.get("motion", {})
         try:
-            surface = Surface(kind, np.array(c.get("normal", [0.0, 0.0, 1.0])), np.array(c.get("origin", [0.0, 0.0, 0.0])),
-                              c.get("rho", math.inf), motion.get("amplitude", 0.0), motion.get("frequency", 0.0),
-                              motion.get("phase", 0.0))
+            surface = self.surface(c, path)
             return SceneContact(c["frame"], self.law(c, path), surface, np.array(c.get("point", [0.0, 0.0, 0.0])),
                                 c.get("friction", 0.0), np.array(c["tangent"]) if "tangent" in c else None,
                                 c.get("stiffness", 1e5))
@@ -214,13 +231,32 @@ class _Reader:
             raise self.fail(path + ["body"], str(exc)) from exc
 
 
+def law_from_keys(keys: dict[str, Any], where: str) -> ImpactLaw:
+    """The impact law of a contact from its scene-file keys (law, e, k, roughness, flux, facet, mu,
+    restitution); ``roughness`` and ``facet`` may be tables or objects. A :class:`SceneError` prefixed by
+    ``where`` names a key that is wrong."""
+    return _Reader("", where).law(keys, [])
+
+
+def surface_from_keys(keys: dict[str, Any], where: str) -> Surface:
+    """The surface of a frame contact from its scene-file keys (surface, normal, origin, rho, motion)."""
+    return _Reader("", where).surface(keys, [])
+
+
+def obstacles_from_keys(items: list[dict[str, Any]], where: str, base: Path) -> dict[str, Shape]:
+    """[[obstacles]] tables as shapes by name (mesh paths relative to ``base``)."""
+    return _Reader("", where).obstacles(items, base)
+
+
 def load_scene(source: str | Path) -> Scene:
-    """Read and validate a scene: a shipped name (:func:`mbimpact.scene_names`) or a TOML path.
+    """Read and validate a scene: the path of a scene file (TOML, whatever its suffix) or a shipped name
+    (:func:`mbimpact.scene_names`).
 
     Raises
     ------
     SceneError
-        Anything wrong with the file; the message names the key and its line.
+        No such file or shipped scene (the message suggests close names); a file that is not TOML; anything
+        wrong in the file (the message names the key and its line).
     """
     path = scene_path(source)
     try:
@@ -230,7 +266,7 @@ def load_scene(source: str | Path) -> Scene:
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path.name}: not valid TOML: {exc}") from exc
+        raise SceneError(f"{path.name}: not a valid TOML scene file: {exc}") from exc
     check(doc, text, path.name)
     r = _Reader(text, path.name)
     m = doc["mechanism"]

@@ -50,7 +50,8 @@ def _table(description: str, properties: dict[str, Any], required: tuple[str, ..
 
 _ROUGHNESS = _table("facet measure of the rough law", {
     "kind": {"enum": ["smooth", "sawtooth", "cone", "gaussian"], "description": "the measure"},
-    "alpha": _num("facet tilt [rad] (sawtooth, cone), 0 ≤ α < π/2", 0.0, math.pi / 2),
+    # the bounds are checked by Cone and Sawtooth, whose message gives the open one, π/2
+    "alpha": _num("facet tilt [rad] (sawtooth, cone), 0 ≤ α < π/2"),
     "sigma": _num("RMS slope per component (gaussian), > 0", 0.0, exclusive=True),
     "dim": {"enum": [2, 3], "description": "gaussian: 3 spatial (default), 2 planar"},
 }, ("kind",))

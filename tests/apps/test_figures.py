@@ -1,7 +1,13 @@
 """Fig. 1, claims 1°–5°, the constructive vs axiomatic comparison, and ``mbimpact compare``."""
 
 import csv
+import functools
+import io
 import math
+import re
+import sys
+import warnings
+from concurrent.futures import Executor, Future
 
 import numpy as np
 import pytest
@@ -44,13 +50,122 @@ def test_constructive_and_axiomatic_laws_disagree_qualitatively():
     assert r["mu_rough"][-1] > mu  # the rough law's friction keeps growing towards grazing
 
 
-def test_figures_command_writes_pngs(tmp_path, capsys):
+class Inline(Executor):
+    """Runs each job at once in this process (warnings raised by the jobs are seen here)."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        future = Future()
+        future.set_result(fn(*args, **kwargs))
+        return future
+
+
+class FakeTerminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+RATIOS = (0.0, 0.5)  # on the boundary and inside the stable band: 10 short simulations
+UNIT = re.compile(r"\[[^\]]+\]$")
+
+
+@pytest.fixture(scope="module")
+def drawn():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = figures.build_all(RATIOS, Inline(), progress=False)
+    return {d.name: d for d in out}, caught
+
+
+def test_figures_command_writes_every_file(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(figures, "write_all", functools.partial(figures.write_all, ratios=[0.5], executor=Inline()))
     assert main(["figures", "--out", str(tmp_path)]) == 0
-    for name in ("fig1.png", "fig2.png", "claims.png", "rough_vs_coulomb.png", "stability_map.png"):
+    names = {"fig1.png", "fig1.csv", "fig2.png", "claims.png", "rough_vs_coulomb.png", "stability_map.png",
+             "stability_map.csv"}
+    assert {p.name for p in tmp_path.iterdir()} == names
+    assert {line.split("/")[-1] for line in capsys.readouterr().out.split()} >= names
+    for name in names - {"fig1.csv", "stability_map.csv"}:
         assert (tmp_path / name).stat().st_size > 10_000
     with (tmp_path / "fig1.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 120 and {"tan_beta", "mu_sawtooth", "mu_formula"} <= set(rows[0])
+    with (tmp_path / "stability_map.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(figures.STABILITY_CASES) and all(r["status"] == "completed" for r in rows)
+    assert all(float(r["growth_simulated"]) < 0 for r in rows)  # ρ⁻¹ = B/2: inside the stable band of (4.3)
+
+
+def test_figures_do_not_warn_about_their_deliberate_steep_facets(drawn):
+    out, caught = drawn
+    assert not [w for w in caught if issubclass(w.category, mbi.NoSeparationWarning)]
+    assert figures.claims_data()["kappa_normal"].min() < -0.9  # the κ < 0 cases are still computed ...
+    ax = out["claims"].figure.axes[2]
+    assert any("κ < 0" in t.get_text() for t in ax.get_legend().get_texts())  # ... and shown as such
+    with pytest.warns(mbi.NoSeparationWarning):  # the silencing stays inside the figures
+        mbi.RoughLaw(mbi.Cone(1.2), 0.8).apply(np.eye(3), np.eye(3), [0, 0, -1.0], [0, 0, 1])
+
+
+def _legend_entries(fig, ax):
+    legends = [ax.get_legend()] if ax.get_legend() is not None else list(fig.legends)
+    return {(t.get_text(), h) for lg in legends for t, h in zip(lg.get_texts(), lg.legend_handles)}
+
+
+def _style(artist):
+    return str(artist.get_color()), str(artist.get_linestyle()), float(artist.get_linewidth())
+
+
+@pytest.mark.parametrize("name", ["fig1", "fig2", "claims", "rough_vs_coulomb", "stability_map"])
+def test_figures_have_units_and_legends_for_every_line(drawn, name):
+    fig = drawn[0][name].figure
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert axes
+    for ax in axes:
+        assert UNIT.search(ax.get_xlabel()) and UNIT.search(ax.get_ylabel()), (name, ax.get_xlabel(), ax.get_ylabel())
+        assert ax.get_title() or fig.get_suptitle()
+        lines = [ln for ln in ax.get_lines() if len(ln.get_xdata()) > 0]
+        if len(lines) + len(ax.collections) <= 1:
+            continue
+        entries = _legend_entries(fig, ax)
+        assert entries, (name, ax.get_title())
+        texts = {t for t, _ in entries}
+        styles = {_style(h) for _, h in entries if hasattr(h, "get_linestyle") and hasattr(h, "get_color")}
+        for ln in lines:  # listed by its label, or drawn in the style of a listed entry (pieces of one curve)
+            assert ln.get_label() in texts or _style(ln) in styles, (name, ax.get_title(), ln.get_label())
+        for c in ax.collections:
+            if len(c.get_offsets()) or c.get_label().startswith("stable"):
+                assert c.get_label() in texts, (name, c.get_label())
+
+
+def test_figure_titles_state_their_parameters(drawn):
+    out = drawn[0]
+    claims = [ax.get_title() for ax in out["claims"].figure.axes if ax.get_visible()]
+    assert [t[:2] for t in claims] == ["1°", "2°", "3°", "4°", "5°"]
+    assert all("e = 0.8" in t for t in claims) and all("α" in t for t in claims)
+    maps = [ax.get_title() for ax in out["stability_map"].figure.axes]
+    assert all(re.search(r"α = [\d.]+ rad, e = [\d.]+, m = \d", t) for t in maps)
+    assert "m = period of the bouncing" in out["stability_map"].figure.get_suptitle()
+    assert "e = 0.8" in out["rough_vs_coulomb"].figure.get_suptitle()
+    assert "α = 0.5" in out["fig1"].figure.axes[0].get_title()
+    assert all(ax.get_aspect() == 1.0 for ax in out["fig2"].figure.axes)  # approach angles drawn true
+
+
+def test_stability_map_marks_boundary_points_as_neutral(drawn):
+    fig = drawn[0]["stability_map"].figure
+    for ax in fig.axes:
+        marked = {c.get_label().split(":")[1].split(",")[0].strip(): len(c.get_offsets()) for c in ax.collections
+                  if c.get_label().startswith("simulated")}
+        assert marked == {"decays": 1, "neutral": 1, "grows": 0}  # ρ⁻¹ = 0 is on the boundary of (4.3)
+
+
+def test_figures_progress_on_a_terminal(monkeypatch):
+    term = FakeTerminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    figures.build_all([0.5], Inline(), progress=True)
+    steps = 4 + len(figures.STABILITY_CASES)
+    assert "mbimpact figures" in term.getvalue() and f"{steps}/{steps}" in term.getvalue()
+    term = FakeTerminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    figures.build_all([0.5], Inline(), progress=False)
+    assert term.getvalue() == ""
 
 
 def test_compare_command(tmp_path, capsys):

@@ -155,3 +155,88 @@ def test_a_velocity_beyond_the_compiled_tables_goes_on_with_every_level():
     law = mbi.RoughLaw(mbi.Cone(0.3), 0.5)
     assert _assert_same(law, mech, q, v, contact) == "adaptive[compiled]"
     assert mbi.impact(mech, q, v, contact, law).nodes == 256
+
+
+def _kernel_states(count, seed):
+    """Random states of the UR5 and the Solo12 at a random contact frame, as the compiled call takes them."""
+    rng = np.random.default_rng(seed)
+    for robot, frame in (("ur5", "tool0"), ("solo12", "FL_FOOT")):
+        mech = mechanism(robot)
+        for _ in range(count):
+            q = mech.random_configuration(rng)
+            _A, U, D = mech.factor_arrays(q)
+            J = mech.point_jacobian(q, frame)
+            R = np.linalg.qr(rng.normal(size=(3, 3)))[0] if rng.random() < 0.5 else np.eye(3)
+            yield U, D, J, -J.T @ R[:, 2] + rng.normal(size=mech.nv) * rng.uniform(0.0, 2.0), R
+
+
+def test_the_call_without_the_peaked_rules_is_the_same_arithmetic_and_hands_a_peak_on(stretched_ur5):
+    from mbimpact.common.geometry import DEGENERATE
+    from mbimpact.laws.compiled import PEAKED, RANK_FLOOR
+
+    kernels = KERNELS.get()
+    for flux in ("physical", "configuration"):
+        compiled = mbi.RoughLaw(mbi.Cone(0.3), 0.5, flux=flux).compiled_impact()
+        assert (compiled.single, compiled.whole) == ("cone_unpeaked", "cone_impact")
+        for U, D, J, v, R in _kernel_states(40, 5):
+            got, want = np.full(6 * len(v) + 33, 7.0), np.full(6 * len(v) + 33, 7.0)
+            a = kernels.cone_unpeaked(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *compiled.args, got)
+            b = kernels.cone_impact(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *compiled.args, want)
+            assert a[0] != PEAKED  # no narrow peak at these states
+            assert a == b and np.array_equal(got, want, equal_nan=True)  # to the bit
+        mech, q, v, contact = stretched_ur5
+        _A, U, D = mech.factor_arrays(q)
+        J, R = contact.jacobian(mech, q, 3)
+        buffer = np.empty(6 * mech.nv + 33)
+        assert kernels.cone_unpeaked(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *compiled.args, buffer)[0] == PEAKED
+        status = kernels.cone_impact(U, D, J, v, R, DEGENERATE, RANK_FLOOR, *compiled.args, buffer)[0]
+        assert compiled.methods[status] == ("poles" if flux == "physical" else "graded[compiled]")
+
+
+def test_a_compiled_impact_runs_every_step_once_a_velocity_needs_them(stretched_ur5):
+    ur5 = mechanism("ur5")
+    q = np.array([0.3, -1.0, 1.2, 0.4, -0.7, 0.2])
+    J = ur5.point_jacobian(q, "tool0")
+    generic = (ur5, q, -J[2] + 0.1 * J[0], mbi.PointContact("tool0"))
+    law = mbi.RoughLaw(mbi.Cone(0.3), 0.4375)  # a restitution of its own: a compiled impact of its own
+    compiled = law.compiled_impact()
+    assert compiled._in_use == ["cone_unpeaked"]
+    before = mbi.impact(*generic, law)
+    assert compiled._in_use == ["cone_unpeaked"]
+    assert _assert_same(law, *stretched_ur5) == "poles"  # the first peak: cone_impact from now on
+    assert compiled._in_use == ["cone_impact"]
+    after = mbi.impact(*generic, law)
+    assert before.method == after.method == "adaptive[compiled]"
+    for f in FIELDS:
+        assert np.array_equal(getattr(before, f), getattr(after, f)), f  # the same result, to the bit
+
+
+def test_an_impact_without_a_narrow_peak_compiles_neither_peaked_rule():
+    # in a fresh interpreter, as `mbimpact demo` runs: the kernels it does not reach are not compiled, nor
+    # loaded from numba's cache
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import numpy as np
+        import mbimpact as mbi
+        from mbimpact.averaging.compiled import GRADED_CONE, POLES
+        from mbimpact.laws.cone_plan import KERNELS
+        from mbimpact.metric.delassus import KERNELS as METRIC
+
+        mech = mbi.Mechanism.from_robot("ur5")
+        q = np.array([0.3, -1.0, 1.2, 0.4, -0.7, 0.2])
+        J = mech.point_jacobian(q, "tool0")
+        result = mbi.impact(mech, q, -J[2] + 0.1 * J[0], mbi.PointContact("tool0"), mbi.RoughLaw(mbi.Cone(0.3), 0.5))
+        cone, metric = KERNELS.get(), METRIC.get()
+        print(result.method)
+        print(*(len(f.signatures) for f in (cone.cone_unpeaked, cone.cone_impact, cone.cone_batch, POLES.get().poles,
+                                             GRADED_CONE.get().graded_cone, GRADED_CONE.get().ring_peaks,
+                                             metric.prepare_factor, metric.finish, metric.delassus)))
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    method, counts = done.stdout.splitlines()[-2:]
+    assert method == "adaptive[compiled]"
+    assert counts == "1 0 0 0 0 0 0 0 0"  # (the adaptive rule's kernel is compiled into the first, or loaded with it)

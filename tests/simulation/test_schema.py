@@ -47,7 +47,7 @@ def line_of(text, needle):
     ("surface = \"sphere\"", "", r"contacts\[0\]\.surface \(line 9\): must be one of 'plane', 'paraboloid', got 'sphere'"),
     ("surface = \"paraboloid\"", "", r"contacts\[0\]\.surface \(line 9\): a paraboloid needs rho"),
     ("rho = 0.3", "", r"contacts\[0\]\.rho \(line 9\): rho applies to surface = 'paraboloid' only"),
-    ("roughness = { kind = \"cone\", alpha = 2.0 }", "", r"contacts\[0\]\.roughness\.alpha.*maximum"),
+    ("roughness = { kind = \"cone\", alpha = 2.0 }", "", r"contacts\[0\]\.roughness.*0 ≤ alpha < π/2 rad"),
     ("roughness = { kind = \"cone\", sigma = 0.2 }", "", r"contacts\[0\]\.roughness\.sigma.*does not apply to a cone"),
     ("e = 0.3", "", r"TOML"),
     ("", "[simulation]\nduration = -1.0", r"simulation\.duration \(line 11\).*minimum"),
@@ -106,7 +106,9 @@ def test_scene_objects_are_validated():
                           ({"gravity": "no"}, "gravity"), ({"max_impacts": 0}, "max_impacts")]:
         with pytest.raises(mbi.ImpactError, match=match):
             mbi.Scene(mech, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0], (c,), **kwargs)
-    with pytest.raises(mbi.ImpactError, match="law"):
+    with pytest.raises(mbi.ImpactError, match="law must be an impact law"):
+        mbi.SceneContact("mass", 3)  # type: ignore[arg-type]
+    with pytest.raises(mbi.SceneError, match="give exactly one of e"):  # a law by name, as in a file, needs e
         mbi.SceneContact("mass", "newton")  # type: ignore[arg-type]
     with pytest.raises(mbi.ImpactError, match="friction"):
         mbi.SceneContact("mass", mbi.NewtonLaw(0.5), friction=-1.0)

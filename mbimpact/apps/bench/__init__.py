@@ -9,6 +9,8 @@ The parts (``run_bench(parts=...)``), each a module:
   (:mod:`~mbimpact.apps.bench.speed`): batches across configurations, the Coulomb law against
   Pinocchio's PGS and ADMM, batches under both BLAS thread settings, the package import; the report ends with the goals and by how
   much each is missed;
+* ``first-run`` — a new user's first command, ``mbimpact demo`` in a fresh interpreter, on an empty
+  kernel cache and on the cache it wrote (:mod:`~mbimpact.apps.bench.firstrun`);
 * ``geometry`` — gap queries per contact pair against one rough-law impact
   (:mod:`~mbimpact.apps.bench.geometry`);
 * ``scenes`` — simulated seconds and impacts per wall second of the shipped scenes
@@ -26,6 +28,7 @@ import warnings
 from ...errors import AccuracyWarning, NoSeparationWarning, ParameterError
 from ..progress import Progress
 from .common import BenchRow, machine_summary, moving_frame, per_call
+from .firstrun import first_run
 from .geometry import gap_queries
 from .laws import BATCH_ROBOTS, OVERHEAD_ROBOTS, accuracy, batch, compliant, overhead
 from .report import format_report, plot, write_csv
@@ -36,8 +39,8 @@ __all__ = ["BenchRow", "PARTS", "run_bench", "format_report", "write_csv", "plot
            "moving_frame", "per_call", "goals", "CACHED_IMPORT"]
 
 #: The parts of the bench, in the order they run.
-PARTS = ("accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads", "import", "geometry",
-         "scenes", "mujoco")
+PARTS = ("accuracy", "compliant", "overhead", "batch", "configurations", "coulomb", "threads", "import", "first-run",
+         "geometry", "scenes", "mujoco")
 
 
 def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str, ...] = PARTS) -> list[BenchRow]:
@@ -57,7 +60,7 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
     batch_robots = BATCH_ROBOTS if not quick else ("ur5", "talos")
     scenes = QUICK_SCENES if quick else None
     steps = {"accuracy": acc_steps, "compliant": 1, "overhead": len(robots), "batch": len(batch_robots),
-             "configurations": 1, "coulomb": 1, "threads": 1, "import": 1, "geometry": 3, "scenes": len(scenes) if scenes else 13, "mujoco": 3}
+             "configurations": 1, "coulomb": 1, "threads": 1, "import": 1, "first-run": 1, "geometry": 3, "scenes": len(scenes) if scenes else 13, "mujoco": 3}
     progress = Progress(sum(steps[p] for p in parts), "bench", enabled=show_progress)
     rows: list[BenchRow] = []
     for part in parts:
@@ -86,6 +89,8 @@ def run_bench(quick: bool = False, show_progress: bool = True, parts: tuple[str,
             rows += threads(quick, progress)
         elif part == "import":
             rows += import_time(progress)
+        elif part == "first-run":
+            rows += first_run(progress)
         elif part == "scenes":
             rows += scene_throughput(scenes, progress)
         elif part == "mujoco":

@@ -28,7 +28,7 @@ import pinocchio as pin
 from ...errors import NoSeparationWarning
 from ...facets import CompliantFacet, CoulombFacet, HuntCrossleyFacet
 from ...laws import ImpactLaw, NewtonLaw, RoughLaw
-from ...mechanism import Mechanism, PointContact
+from ...mechanism import Mechanism, PointContact, joint_velocity
 from ...pipeline import impact
 from ...results import ImpactResult
 from ...roughness import Cone, Facets, GaussianSlopes
@@ -89,7 +89,7 @@ def accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]
     for case, (A, J) in cases.items():
         for beta_deg in betas:
             u = _incident(beta_deg)
-            v = np.linalg.lstsq(J, u, rcond=None)[0] if case != "point mass" else u
+            v = joint_velocity(A, J, u) if case != "point mass" else u
             ref = RoughLaw(Cone(ALPHA), E, nodes=1024).apply(A, J, v, [0, 0, 1]).P
             label = f"{case}, beta={beta_deg:g}"
             measure = _measurer(rows, label, A, J, v, ref, min_time)
@@ -107,7 +107,7 @@ def accuracy(quick: bool, min_time: float, progress: Progress) -> list[BenchRow]
     A, J = singular
     slopes = GaussianSlopes(0.3)
     for beta_deg in (30.0, 75.0) if not quick else (75.0,):
-        v = np.linalg.lstsq(J, _incident(beta_deg), rcond=None)[0]
+        v = joint_velocity(A, J, _incident(beta_deg))
         ref = RoughLaw(slopes, E, nodes=128).apply(A, J, v, [0, 0, 1]).P
         label = f"UR5 near-singular, GaussianSlopes(0.3), beta={beta_deg:g}"
         measure = _measurer(rows, label, A, J, v, ref, min_time)
@@ -139,7 +139,7 @@ def overhead(robots: tuple[str, ...], min_time: float, progress: Progress) -> li
         rows += _overhead_case(mech, name, q, frame, v, min_time, floors=True)
         if name == "ur5":  # the elbow straight: W's eigenvalues 1e7 apart (a near-singular arm)
             q = np.array([0.0, -1.57, 0.0, -1.57, 0.0, 0.0])
-            v = np.linalg.lstsq(mech.point_jacobian(q, "tool0"), [0.3, 0.1, -1.0], rcond=None)[0]
+            v = joint_velocity(mech.mass_matrix(q), mech.point_jacobian(q, "tool0"), [0.3, 0.1, -1.0])
             rows += _overhead_case(mech, "ur5, elbow straight (anisotropic W)", q, "tool0", v, min_time,
                                    floors=False)
         if name == "solo12":  # a foot on the ground: W's eigenvalues 30× apart, the cone's kernels peak
@@ -286,7 +286,7 @@ def compliant(quick: bool, min_time: float, progress: Progress) -> list[BenchRow
     contact = PointContact("tool0")
     facet = np.array([math.sin(0.3), 0.0, math.cos(0.3)])
     J = mech.point_jacobian(q, "tool0")
-    v = np.linalg.lstsq(J, [0.3, 0.0, -1.0], rcond=None)[0]
+    v = joint_velocity(mech.mass_matrix(q), J, [0.3, 0.0, -1.0])
     frame = contact.basis() @ np.column_stack([[math.cos(0.3), 0, -math.sin(0.3)], [0, 1, 0], facet])
     law = NewtonLaw(E)
     closed = law.apply(mech.mass_matrix(q), J, v, frame).dv

@@ -33,10 +33,11 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ...common.compiled import kernel
 from ...quadrature.rules import gauss_legendre
 from .primitives import CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_SETTLED, compensated_add, cos_sin, level_decision
 
-__all__ = ["rule_table", "cone_adaptive", "adaptive_levels", "jit_seconds"]
+__all__ = ["rule_table", "cone_adaptive", "jit_seconds"]
 
 # fast-math flags of the node sums: reassociated into SIMD lanes, products fused (no finite-math
 # assumptions: a NaN must stay one)
@@ -83,15 +84,19 @@ def rule_table(n: int, levels: int = 2) -> NDArray[np.float64]:
     return table
 
 
-# Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
-# that a caller's read-only or strided W or U does not make numba compile another specialisation; the
-# table C-contiguous (strided loads would keep the node loops out of SIMD lanes)
+# Explicit signatures, compiled (or loaded from the cache) on first use (mbimpact.common.compiled.kernel):
+# read-only inputs of any layout, so that a caller's read-only or strided W or U does not make numba compile
+# another specialisation; the table C-contiguous (strided loads would keep the node loops out of SIMD lanes)
 _IN2 = types.Array(types.float64, 2, "A", readonly=True)
 _TABLE = types.Array(types.float64, 2, "C", readonly=True)
 _SIGNATURE = types.int64(types.float64, _IN2, _IN2, _TABLE, types.boolean, types.float64, types.float64,
                          types.float64, types.float64[:, ::1], types.float64[::1])
 _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.boolean, types.float64,
                                        types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
+# _level's, so that its calls from every level share one compilation (not one more for a constant start)
+_F = types.float64
+_LEVEL = types.int64(types.int64, types.int64, _TABLE, types.boolean, _F, _F, _F, _F, _F, _F, _F,
+                     types.UniTuple(_F, 5), _F, types.boolean, _F, types.float64[::1])
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
@@ -127,7 +132,7 @@ def _block_sums(ct: NDArray[np.float64], st: NDArray[np.float64], wt: NDArray[np
     return d, k0, k1, k2, bad
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(_LEVEL, error_model="numpy")
 def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, s: float, c: float, ut: float,
            uz: float, cp: float, sp: float, harmonics: tuple[float, float, float, float, float], floor: float,
            configuration: bool, e: float, out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
@@ -168,52 +173,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], arc: bool, h: float, 
     return 0
 
 
-@njit(cache=True, error_model="numpy")
-def adaptive_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
-                    levels: int, configuration: bool, e: float, rtol: float, degenerate: float,
-                    P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
-    """The adaptive rule's levels n, 2n, … (at most ``levels``) for one velocity: (status, final
-    node count), with :func:`mbimpact.averaging.refinement.refine`'s tests that rounding stopped the
-    refinement (STALLED) or that the next level would pass max_nodes (CAPPED).
-    The body of :func:`cone_adaptive`, without an explicit signature: other kernels (a single cone
-    impact, :mod:`mbimpact.laws.compiled_cone`) compile it for their own array types."""
-    n = table.shape[1] // ((1 << levels) - 1)
-    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
-    ut = math.hypot(ux, uy)
-    cp, sp = (ux / ut, uy / ut) if ut > 0.0 else (1.0, 0.0)
-    s, c = math.sin(alpha), math.cos(alpha)
-    arc = not s * ut <= c * -uz
-    h = math.pi - math.acos(min(1.0, c * -uz / (s * ut))) if arc else 0.0
-    # mᵀWm in the harmonics of φ, then of θ = φ − ψ
-    w00, w01, w02, w11, w12, w22 = W[0, 0], W[0, 1], W[0, 2], W[1, 1], W[1, 2], W[2, 2]
-    q0 = 0.5 * s * s * (w00 + w11) + c * c * w22
-    a1, b1 = 2.0 * s * c * w02, 2.0 * s * c * w12
-    a2, b2 = 0.5 * s * s * (w00 - w11), s * s * w01
-    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
-    a1, b1 = a1 * cp + b1 * sp, b1 * cp - a1 * sp
-    a2, b2 = a2 * c2 + b2 * s2, b2 * c2 - a2 * s2
-    harmonics = (q0, a1, b1, a2, b2)
-    floor = degenerate * (w00 + w11 + w22)
-    coarse, fine = np.empty(3), np.empty(3)
-    status = _level(0, n, table, arc, h, s, c, ut, uz, cp, sp, harmonics, floor, configuration, e, coarse)
-    if status:
-        return status, n
-    previous, start, m = math.inf, n, n
-    for _ in range(1, levels):
-        m *= 2
-        status = _level(start, m, table, arc, h, s, c, ut, uz, cp, sp, harmonics, floor, configuration, e, fine)
-        if status:
-            return status, m
-        start += m
-        decision, err = level_decision(coarse, fine, W, rtol, m, previous, P, error)
-        if decision != NOT_SETTLED:
-            return decision, m
-        previous = err
-        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
-    return CAPPED, m
-
-
-@njit(_PASS, cache=True, error_model="numpy")
+@kernel(_PASS, error_model="numpy")
 def cone_adaptive(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
                   levels: int, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
                   error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
@@ -259,13 +219,43 @@ def cone_adaptive(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], 
     nodes : int
         The node count of the last level computed.
     """
-    return adaptive_levels(alpha, W, U, table, levels, configuration, e, rtol, degenerate, P, error)
+    n = table.shape[1] // ((1 << levels) - 1)
+    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    ut = math.hypot(ux, uy)
+    cp, sp = (ux / ut, uy / ut) if ut > 0.0 else (1.0, 0.0)
+    s, c = math.sin(alpha), math.cos(alpha)
+    arc = not s * ut <= c * -uz
+    h = math.pi - math.acos(min(1.0, c * -uz / (s * ut))) if arc else 0.0
+    # mᵀWm in the harmonics of φ, then of θ = φ − ψ
+    w00, w01, w02, w11, w12, w22 = W[0, 0], W[0, 1], W[0, 2], W[1, 1], W[1, 2], W[2, 2]
+    q0 = 0.5 * s * s * (w00 + w11) + c * c * w22
+    a1, b1 = 2.0 * s * c * w02, 2.0 * s * c * w12
+    a2, b2 = 0.5 * s * s * (w00 - w11), s * s * w01
+    c2, s2 = cp * cp - sp * sp, 2.0 * cp * sp
+    a1, b1 = a1 * cp + b1 * sp, b1 * cp - a1 * sp
+    a2, b2 = a2 * c2 + b2 * s2, b2 * c2 - a2 * s2
+    harmonics = (q0, a1, b1, a2, b2)
+    floor = degenerate * (w00 + w11 + w22)
+    coarse, fine = np.empty(3), np.empty(3)
+    previous, start, m = math.inf, 0, n
+    for level in range(levels):
+        status = _level(start, m, table, arc, h, s, c, ut, uz, cp, sp, harmonics, floor, configuration, e, fine)
+        if status:
+            return status, m
+        if level > 0:
+            decision, err = level_decision(coarse, fine, W, rtol, m, previous, P, error)
+            if decision != NOT_SETTLED:
+                return decision, m
+            previous = err
+        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
+        start += m
+        m *= 2
+    return CAPPED, m // 2
 
 
 def jit_seconds() -> float:
-    """Wall time to make :func:`cone_adaptive` callable in this process (numba's import excluded:
-    importing this module does it): its machine code loaded from numba's on-disk cache, or compiled
-    when that cache is missing or stale."""
+    """Wall time to make :func:`cone_adaptive` callable in this process (numba's import excluded): its
+    machine code loaded from numba's on-disk cache, or compiled when that cache is missing or stale."""
     start = time.perf_counter()
     cone_adaptive(0.4, np.eye(3) / 3.0, np.array([[0.6, 0.0, -0.8]]), rule_table(1, 4), 4, True, 0.5, 1e-12,
                   1e-14, np.empty((1, 3)), np.empty(1))

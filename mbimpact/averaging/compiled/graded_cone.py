@@ -5,7 +5,7 @@ of facets, and the kernels of (2.8) with the flux weights of (2.7) peak there wi
 :class:`~mbimpact.averaging.Graded` then integrates with the graded rule of
 :func:`mbimpact.quadrature.graded.graded_azimuth_rule` and refines it as
 :func:`mbimpact.averaging.refinement.refine` does; in numpy each level costs its array operations.
-:func:`graded_pass` does all of it on floats: the minima of q and their widths
+:func:`graded_cone` does all of it on floats: the minima of q and their widths
 (:func:`mbimpact.quadrature.graded.ring_minima`, with :meth:`mbimpact.Cone.graded_rule`'s test that
 the ring has a narrow peak), the facing interval cut at the minima inside it, every piece halved
 and each half mapped by φ = a ± ε sinh t onto its graded end a, Gauss–Legendre in t, and the
@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ...common.compiled import kernel
 from ...common.geometry import ring_coefficients
 from ...quadrature import graded
 from ...quadrature.rules import gauss_legendre
@@ -37,7 +38,7 @@ from .primitives import (CAPPED, DEGENERATE_FACET, NOT_FACING, NOT_PEAKED, NOT_S
                          level_decision, rounding_floor)
 
 __all__ = ["rule_table", "ring_form", "ring_minima_into", "minima_sensitivity", "ring_peaks", "graded_cone",
-           "graded_levels", "jit_seconds"]
+           "jit_seconds"]
 
 # the widths below which :meth:`mbimpact.Cone.graded_rule` gives up: q_min / q_max ≲ 1e-14, facets the
 # mechanism cannot push, around which the flux weight is not integrable (grading cannot help)
@@ -83,8 +84,9 @@ def rule_table(n: int, levels: int) -> NDArray[np.float64]:
     return table
 
 
-# Explicit signatures, compiled (or loaded from the cache) on import: read-only inputs of any layout, so
-# that a caller's read-only or strided W or U does not make numba compile another specialisation
+# Explicit signatures, compiled (or loaded from the cache) on first use (mbimpact.common.compiled.kernel):
+# read-only inputs of any layout, so that a caller's read-only or strided W or U does not make numba compile
+# another specialisation
 _IN2 = types.Array(types.float64, 2, "A", readonly=True)
 # the table C-contiguous: strided indexing would keep the node loops out of SIMD lanes
 _TABLE = types.Array(types.float64, 2, "C", readonly=True)
@@ -92,6 +94,9 @@ _PEAKS = types.int64(types.float64, _IN2, types.float64)
 _PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.float64, types.boolean,
                                        types.float64, types.float64, types.float64, types.float64[:, ::1],
                                        types.float64[::1])
+# _level's, so that its calls from every level share one compilation (not one more for a constant start)
+_LEVEL = types.int64(types.int64, types.int64, _TABLE, types.int64, types.float64[:, ::1], types.float64,
+                     types.float64, _IN2, _IN2, types.float64, types.boolean, types.float64, types.float64[::1])
 
 
 #: :func:`mbimpact.common.geometry.ring_coefficients`, :func:`mbimpact.quadrature.graded.polish_minimum` and
@@ -160,7 +165,7 @@ def minima_sensitivity(s: float, c: float, W: NDArray[np.float64], phi: NDArray[
     return worst
 
 
-@njit(_PEAKS, cache=True, error_model="numpy")
+@kernel(_PEAKS, error_model="numpy")
 def ring_peaks(alpha: float, W: NDArray[np.float64], peaked: float) -> int:  # pragma: no cover — compiled
     """How many minima of q = mᵀWm the graded rule of a cone of tilt α is cut at (1 or 2), or 0 where
     :meth:`mbimpact.Cone.graded_rule` gives none (its kernels have no peak narrower than ``peaked``,
@@ -183,7 +188,7 @@ def ring_peaks(alpha: float, W: NDArray[np.float64], peaked: float) -> int:  # p
     return ring_minima_into(ring_form(math.sin(alpha), math.cos(alpha), W), peaked, phi, eps)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(_LEVEL, error_model="numpy")
 def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: NDArray[np.float64], s: float,
            c: float, W: NDArray[np.float64], U: NDArray[np.float64], floor: float, configuration: bool, e: float,
            out: NDArray[np.float64]) -> int:  # pragma: no cover — compiled
@@ -220,74 +225,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], pieces: int, ends: ND
     return 0
 
 
-@njit(cache=True, error_model="numpy")
-def graded_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
-                  levels: int, peaked: float, configuration: bool, e: float, rtol: float, degenerate: float,
-                  P: NDArray[np.float64], error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
-    """The body of :func:`graded_cone`, whose one explicit signature the single cone impact
-    (:mod:`mbimpact.laws.compiled_cone`) calls too: the rule is compiled once, for one set of array types."""
-    s, c = math.sin(alpha), math.cos(alpha)
-    phi_star, eps_star = np.empty(2), np.empty(2)
-    k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
-    if k == 0:
-        return NOT_PEAKED, 0
-    # the facing interval [lo, hi] (facing_half_width): the whole ring from ψ, or the arc ψ + π ± h
-    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
-    ut, un = math.hypot(ux, uy), abs(uz)
-    psi = math.atan2(uy, ux)
-    half = math.pi if s * ut <= c * un else math.pi - math.acos(min(1.0, max(-1.0, c * un / (s * ut))))
-    centre = psi if half == math.pi else psi + math.pi
-    lo, hi = centre - half, centre + half
-    # cut at the minima inside it (unwrapped); those outside make zero-length pieces at hi
-    breaks = np.empty(k + 2)
-    breaks[0], breaks[k + 1] = lo, hi
-    for j in range(k):
-        inside = (phi_star[j] - lo) % (2 * math.pi) + lo
-        breaks[j + 1] = inside if inside < hi else hi
-    if k == 2 and breaks[2] < breaks[1]:
-        breaks[1], breaks[2] = breaks[2], breaks[1]
-    # every piece halved; each half graded towards its end a: φ = a ± ε sinh t, ε the distance from a to
-    # the nearest peak's complex singularity φ_j ± iε_j, t ∈ [0, T], T = asinh(ℓ / ε)
-    pieces = 2 * k + 2
-    ends = np.empty((4, pieces))
-    for i in range(k + 1):
-        a, b = breaks[i], breaks[i + 1]
-        mid = 0.5 * (a + b)
-        ends[0, i], ends[1, i], ends[3, i] = a, 1.0, mid - a
-        ends[0, k + 1 + i], ends[1, k + 1 + i], ends[3, k + 1 + i] = b, -1.0, b - mid
-    for h in range(pieces):
-        eps = math.inf
-        for j in range(k):
-            dist = abs((ends[0, h] - phi_star[j] + math.pi) % (2 * math.pi) - math.pi)
-            eps = min(eps, math.sqrt(eps_star[j] ** 2 + dist**2))
-        eps = max(eps, 1e-300)
-        ends[2, h], ends[3, h] = eps, math.asinh(ends[3, h] / eps)
-    trace = W[0, 0] + W[1, 1] + W[2, 2]
-    floor = degenerate * trace
-    n = table.shape[1] // ((1 << levels) - 1)
-    coarse, fine = np.empty(3), np.empty(3)
-    status = _level(0, n, table, pieces, ends, s, c, W, U, floor, configuration, e, coarse)
-    if status:
-        return status, n
-    previous, start, m = math.inf, n, n
-    for _ in range(1, levels):
-        m *= 2
-        status = _level(start, m, table, pieces, ends, s, c, W, U, floor, configuration, e, fine)
-        if status:
-            return status, m
-        start += m
-        decision, err = level_decision(coarse, fine, W, rtol, pieces * m, previous, P, error)
-        if decision == SETTLED:  # P and error written: the estimate also holds what the levels cannot see
-            error[0] = max(error[0], minima_sensitivity(s, c, W, phi_star, k, 1.0 if configuration else 0.5),
-                           rounding_floor(P, W))
-        if decision != NOT_SETTLED:  # settled, or stalled at rounding
-            return decision, m
-        previous = err
-        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
-    return CAPPED, m
-
-
-@njit(_PASS, cache=True, error_model="numpy")
+@kernel(_PASS, error_model="numpy")
 def graded_cone(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
                 peaked: float, configuration: bool, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
                 error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
@@ -339,14 +277,70 @@ def graded_cone(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
     nodes : int
         The node count a piece of the last level computed.
     """
-    return graded_levels(alpha, W, U, table, levels, peaked, configuration, e, rtol, degenerate, P, error)
+    s, c = math.sin(alpha), math.cos(alpha)
+    phi_star, eps_star = np.empty(2), np.empty(2)
+    k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
+    if k == 0:
+        return NOT_PEAKED, 0
+    # the facing interval [lo, hi] (facing_half_width): the whole ring from ψ, or the arc ψ + π ± h
+    ux, uy, uz = U[0, 0], U[0, 1], U[0, 2]
+    ut, un = math.hypot(ux, uy), abs(uz)
+    psi = math.atan2(uy, ux)
+    half = math.pi if s * ut <= c * un else math.pi - math.acos(min(1.0, max(-1.0, c * un / (s * ut))))
+    centre = psi if half == math.pi else psi + math.pi
+    lo, hi = centre - half, centre + half
+    # cut at the minima inside it (unwrapped); those outside make zero-length pieces at hi
+    breaks = np.empty(k + 2)
+    breaks[0], breaks[k + 1] = lo, hi
+    for j in range(k):
+        inside = (phi_star[j] - lo) % (2 * math.pi) + lo
+        breaks[j + 1] = inside if inside < hi else hi
+    if k == 2 and breaks[2] < breaks[1]:
+        breaks[1], breaks[2] = breaks[2], breaks[1]
+    # every piece halved; each half graded towards its end a: φ = a ± ε sinh t, ε the distance from a to
+    # the nearest peak's complex singularity φ_j ± iε_j, t ∈ [0, T], T = asinh(ℓ / ε)
+    pieces = 2 * k + 2
+    ends = np.empty((4, pieces))
+    for i in range(k + 1):
+        a, b = breaks[i], breaks[i + 1]
+        mid = 0.5 * (a + b)
+        ends[0, i], ends[1, i], ends[3, i] = a, 1.0, mid - a
+        ends[0, k + 1 + i], ends[1, k + 1 + i], ends[3, k + 1 + i] = b, -1.0, b - mid
+    for h in range(pieces):
+        eps = math.inf
+        for j in range(k):
+            dist = abs((ends[0, h] - phi_star[j] + math.pi) % (2 * math.pi) - math.pi)
+            eps = min(eps, math.sqrt(eps_star[j] ** 2 + dist**2))
+        eps = max(eps, 1e-300)
+        ends[2, h], ends[3, h] = eps, math.asinh(ends[3, h] / eps)
+    trace = W[0, 0] + W[1, 1] + W[2, 2]
+    floor = degenerate * trace
+    n = table.shape[1] // ((1 << levels) - 1)
+    coarse, fine = np.empty(3), np.empty(3)
+    previous, start, m = math.inf, 0, n
+    for level in range(levels):
+        status = _level(start, m, table, pieces, ends, s, c, W, U, floor, configuration, e, fine)
+        if status:
+            return status, m
+        if level > 0:
+            decision, err = level_decision(coarse, fine, W, rtol, pieces * m, previous, P, error)
+            if decision == SETTLED:  # P and error written: the estimate also holds what the levels cannot see
+                error[0] = max(error[0], minima_sensitivity(s, c, W, phi_star, k, 1.0 if configuration else 0.5),
+                               rounding_floor(P, W))
+            if decision != NOT_SETTLED:  # settled, or stalled at rounding
+                return decision, m
+            previous = err
+        coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
+        start += m
+        m *= 2
+    return CAPPED, m // 2
 
 
 def jit_seconds() -> float:
     """Wall time to make :func:`ring_peaks` and :func:`graded_cone` callable in this process (numba's
-    import excluded: importing this module does it): their machine code loaded from numba's on-disk
-    cache (``__pycache__`` next to this file), or compiled when that cache is missing or stale. The
-    first call pays it; later calls return near 0."""
+    import excluded): their machine code loaded from numba's on-disk cache (``__pycache__`` next to this
+    file), or compiled when that cache is missing or stale. The first call pays it; later calls return
+    near 0."""
     start = time.perf_counter()
     W = np.diag([1e-6, 1.0, 1.0])  # q has two sharp minima on a tilted ring
     ring_peaks(0.4, W, 0.15)

@@ -32,6 +32,7 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ...common.compiled import kernel
 from .graded_cone import rule_table
 from .half_pieces import NODE_PLUS_ONE, WEIGHT, half_piece_nodes, half_piece_sums
 from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NEED_TABLE, NOT_FACING, NOT_SETTLED, compensated_add,
@@ -61,9 +62,12 @@ _TILTS = types.int64(types.float64, types.float64, types.float64, _IN1, _IN1, _T
 _PASS = types.UniTuple(types.int64, 2)(_IN2, _IN2, _IN1, _IN1, _INT1, _TABLE, types.int64, types.int64,
                                        types.boolean, types.float64, types.float64, types.float64,
                                        types.float64[:, ::1], types.float64[::1])
+# _level's, so that its calls from every level share one compilation (not one more for a constant start)
+_LEVEL = types.UniTuple(types.int64, 2)(types.int64, types.int64, _TABLE, _IN1, _IN1, types.int64, types.int64, _IN2,
+                                        _IN2, types.float64, types.boolean, types.float64, types.float64[::1])
 
 
-@njit(_TILTS, cache=True, error_model="numpy")
+@kernel(_TILTS, error_model="numpy")
 def tilt_nodes(lo: float, hi: float, split: float, at: NDArray[np.float64], et: NDArray[np.float64],
                table: NDArray[np.float64], n: int, count: int, tilt: NDArray[np.float64], dtilt: NDArray[np.float64],
                start: NDArray[np.int64]) -> int:  # pragma: no cover — compiled
@@ -172,7 +176,7 @@ def _minima(q0: float, a1: float, b1: float, a2: float, b2: float, grid: NDArray
     return k
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(_LEVEL, error_model="numpy")
 def _level(start: int, m: int, table: NDArray[np.float64], tilt: NDArray[np.float64], pd: NDArray[np.float64],
            lo_tilt: int, hi_tilt: int, W: NDArray[np.float64], U: NDArray[np.float64], floor: float,
            configuration: bool, e: float, out: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover
@@ -258,7 +262,7 @@ def _level(start: int, m: int, table: NDArray[np.float64], tilt: NDArray[np.floa
     return 0, facets
 
 
-@njit(_PASS, cache=True, error_model="numpy")
+@kernel(_PASS, error_model="numpy")
 def graded_slopes(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDArray[np.float64],
                       pd: NDArray[np.float64], tilt_start: NDArray[np.int64], table: NDArray[np.float64], n: int,
                       levels: int, configuration: bool, e: float, rtol: float, degenerate: float,
@@ -309,25 +313,23 @@ def graded_slopes(W: NDArray[np.float64], U: NDArray[np.float64], tilt: NDArray[
     trace = W[0, 0] + W[1, 1] + W[2, 2]
     floor = degenerate * trace
     coarse, fine = np.empty(3), np.empty(3)
-    status, _ = _level(0, n, table, tilt, pd, tilt_start[0], tilt_start[1], W, U, floor, configuration, e, coarse)
-    if status:
-        return status, n
-    previous, start, m = math.inf, n, n
-    for level in range(1, levels):
+    previous, start, m = math.inf, 0, n
+    for level in range(levels):
         if level >= given:
-            return NEED_TABLE, m
-        m *= 2
+            return NEED_TABLE, m // 2
         status, facets = _level(start, m, table, tilt, pd, tilt_start[level], tilt_start[level + 1], W, U, floor,
                                 configuration, e, fine)
         if status:
             return status, m
-        start += m
-        decision, err = level_decision(coarse, fine, W, rtol, facets, previous, P, error)
-        if decision != NOT_SETTLED:  # settled (P and error written), or stalled at rounding
-            return decision, m
-        previous = err
+        if level > 0:
+            decision, err = level_decision(coarse, fine, W, rtol, facets, previous, P, error)
+            if decision != NOT_SETTLED:  # settled (P and error written), or stalled at rounding
+                return decision, m
+            previous = err
         coarse[0], coarse[1], coarse[2] = fine[0], fine[1], fine[2]
-    return CAPPED, m
+        start += m
+        m *= 2
+    return CAPPED, m // 2
 
 
 def jit_seconds() -> float:

@@ -7,7 +7,7 @@ q(z) = m(z)ᵀ W m(z) with m(z) = (s (z + 1/z)/2, s (z − 1/z)/2i, c) is a Laur
 2 whose zeros come in pairs (a, 1/ā). A nearly singular W puts a pair close to the unit circle, one
 pair at each minimum of q on the ring, and f_j peaks there with the width ε of the minimum
 (:func:`mbimpact.averaging.compiled.graded_cone.ring_minima_into`). Instead of grading the nodes towards the
-peaks, :func:`pole_levels` removes them: with r_j = T_j(a) / q'(a) the residue of f_j at a
+peaks, :func:`poles` removes them: with r_j = T_j(a) / q'(a) the residue of f_j at a
 (T_j = (mᵀu)² m_j), the function
 
     s_j(φ) = 2 Re[r_j / (e^{iφ} − a)]
@@ -52,11 +52,12 @@ import numpy as np
 from numba import njit, types
 from numpy.typing import NDArray
 
+from ...common.compiled import kernel
 from .graded_cone import minima_sensitivity, ring_form, ring_minima_into
 from .primitives import (CAPPED, DEGENERATE_FACET, EPS, NOT_FACING, NOT_PEAKED, NOT_SETTLED, SETTLED, STALLED,
                          UNRESOLVED, level_decision, rounding_floor)
 
-__all__ = ["pole_levels", "poles", "ring_zero", "jit_seconds"]
+__all__ = ["poles", "ring_zero", "jit_seconds"]
 
 # Newton's iterations on a zero of q, and its stopping step relative to |a|
 _NEWTON_STEPS = 60
@@ -102,12 +103,59 @@ def ring_zero(s: float, c: float, W: NDArray[np.float64], phi: float, eps: float
     return 0j
 
 
-@njit(cache=True, error_model="numpy")
-def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64],
-                levels: int, peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-                error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """The body of :func:`poles`, whose one explicit signature the single cone impact
-    (:mod:`mbimpact.laws.compiled_cone`) calls too: the rule is compiled once, for one set of array types."""
+_IN2 = types.Array(types.float64, 2, "A", readonly=True)
+_TABLE = types.Array(types.float64, 2, "C", readonly=True)
+_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.float64, types.float64,
+                                       types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
+
+
+@kernel(_PASS, error_model="numpy")
+def poles(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
+          peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
+          error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
+    """(2.8) for one unit velocity on a cone with the physical flux, its peaked kernels' poles subtracted
+    and integrated in closed form, the smooth rest by the cone's rule refined as the adaptive rule refines
+    it: n, 2n, 4n, … nodes until two successive levels agree.
+
+    Parameters
+    ----------
+    alpha : float
+        Tilt of the cone, 0 < α < π/2.
+    W : ndarray, shape (3, 3)
+        Delassus matrix in the local frame.
+    U : ndarray, shape (1, 3)
+        Unit contact velocity u in the local frame, u_n < 0.
+    table : ndarray, shape (5, n (2^levels − 1))
+        The cone's nodes of every level (:func:`mbimpact.averaging.compiled.cone.rule_table`).
+    levels : int
+        The number of levels in the table.
+    peaked : float
+        The peak width below which the poles are subtracted (:attr:`mbimpact.averaging.Graded.peaked`).
+    e : float
+        Facet restitution.
+    rtol : float
+        Two levels agree when their relative difference by W P is within this, or within the rounding
+        floor 100 ε √K of a K-node sum.
+    degenerate : float
+        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
+    P : ndarray, shape (1, 3)
+        Output: the last level's impulse P = (1+e) N / D.
+    error : ndarray, shape (1,)
+        Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at the
+        minima (:func:`~mbimpact.averaging.compiled.graded_cone.minima_sensitivity`) and that of P
+        (:func:`~mbimpact.averaging.compiled.primitives.rounding_floor`).
+
+    Returns
+    -------
+    status : int
+        ``SETTLED`` (``P`` and ``error`` are written); ``NOT_PEAKED`` where the kernels have no peak
+        narrower than ``peaked`` (or one too narrow to treat); ``UNRESOLVED`` where a zero of q was not
+        found; ``STALLED`` where the answer's sensitivity to an ulp of W exceeds rtol, or rounding stops
+        the levels short of it, ``CAPPED`` at the last level of the table; ``DEGENERATE_FACET``,
+        ``NOT_FACING`` (:mod:`~mbimpact.averaging.compiled.primitives`).
+    nodes : int
+        The node count of the last level computed.
+    """
     s, c = math.sin(alpha), math.cos(alpha)
     phi_star, eps_star = np.empty(2), np.empty(2)
     k = ring_minima_into(ring_form(s, c, W), peaked, phi_star, eps_star)
@@ -191,62 +239,6 @@ def pole_levels(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], ta
         start += m
         m *= 2
     return CAPPED, m // 2
-
-
-_IN2 = types.Array(types.float64, 2, "A", readonly=True)
-_TABLE = types.Array(types.float64, 2, "C", readonly=True)
-_PASS = types.UniTuple(types.int64, 2)(types.float64, _IN2, _IN2, _TABLE, types.int64, types.float64, types.float64,
-                                       types.float64, types.float64, types.float64[:, ::1], types.float64[::1])
-
-
-@njit(_PASS, cache=True, error_model="numpy")
-def poles(alpha: float, W: NDArray[np.float64], U: NDArray[np.float64], table: NDArray[np.float64], levels: int,
-              peaked: float, e: float, rtol: float, degenerate: float, P: NDArray[np.float64],
-              error: NDArray[np.float64]) -> tuple[int, int]:  # pragma: no cover — compiled
-    """(2.8) for one unit velocity on a cone with the physical flux, its peaked kernels' poles subtracted
-    and integrated in closed form, the smooth rest by the cone's rule refined as the adaptive rule refines
-    it: n, 2n, 4n, … nodes until two successive levels agree.
-
-    Parameters
-    ----------
-    alpha : float
-        Tilt of the cone, 0 < α < π/2.
-    W : ndarray, shape (3, 3)
-        Delassus matrix in the local frame.
-    U : ndarray, shape (1, 3)
-        Unit contact velocity u in the local frame, u_n < 0.
-    table : ndarray, shape (5, n (2^levels − 1))
-        The cone's nodes of every level (:func:`mbimpact.averaging.compiled.cone.rule_table`).
-    levels : int
-        The number of levels in the table.
-    peaked : float
-        The peak width below which the poles are subtracted (:attr:`mbimpact.averaging.Graded.peaked`).
-    e : float
-        Facet restitution.
-    rtol : float
-        Two levels agree when their relative difference by W P is within this, or within the rounding
-        floor 100 ε √K of a K-node sum.
-    degenerate : float
-        A facet with mᵀWm ≤ degenerate · tr W cannot be pushed by the mechanism.
-    P : ndarray, shape (1, 3)
-        Output: the last level's impulse P = (1+e) N / D.
-    error : ndarray, shape (1,)
-        Output: the error estimate: the largest of |W (P_m − P_{m/2})| / |W P_m|, the rounding of q at the
-        minima (:func:`~mbimpact.averaging.compiled.graded_cone.minima_sensitivity`) and that of P
-        (:func:`~mbimpact.averaging.compiled.primitives.rounding_floor`).
-
-    Returns
-    -------
-    status : int
-        ``SETTLED`` (``P`` and ``error`` are written); ``NOT_PEAKED`` where the kernels have no peak
-        narrower than ``peaked`` (or one too narrow to treat); ``UNRESOLVED`` where a zero of q was not
-        found; ``STALLED`` where the answer's sensitivity to an ulp of W exceeds rtol, or rounding stops
-        the levels short of it, ``CAPPED`` at the last level of the table; ``DEGENERATE_FACET``,
-        ``NOT_FACING`` (:mod:`~mbimpact.averaging.compiled.primitives`).
-    nodes : int
-        The node count of the last level computed.
-    """
-    return pole_levels(alpha, W, U, table, levels, peaked, e, rtol, degenerate, P, error)
 
 
 def jit_seconds() -> float:
