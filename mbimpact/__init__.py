@@ -82,8 +82,9 @@ from .mechanism import (
     robot_urdf,
 )
 from .metric import ContactMetric, local_basis
-from .pipeline import impact, impact_batch
+from .pipeline import impact, impact_batch, impact_outcomes
 from .results import BatchResult, ContactImpulses, ImpactResult
+from .results.outcomes import ImpactOutcomes
 from .roughness import (
     Cone,
     Facets,
@@ -141,6 +142,7 @@ __all__ = [
     "PointContact",
     "impact",
     "impact_batch",
+    "impact_outcomes",
     "joint_velocity",
     "ContactMetric",
     "local_basis",
@@ -190,6 +192,7 @@ __all__ = [
     "ImpactResult",
     "BatchResult",
     "ContactImpulses",
+    "ImpactOutcomes",
     "e_from_k",
     "k_from_e",
     "impact_duration",

@@ -22,7 +22,7 @@ treat to the next:
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,7 +37,10 @@ from .mechanism.mechanism import Mechanism
 from .metric.delassus import ContactMetric, FactoredMetric
 from .results.impact import BatchResult, ImpactResult
 
-__all__ = ["impact", "impact_batch"]
+if TYPE_CHECKING:
+    from .results.outcomes import ImpactOutcomes
+
+__all__ = ["impact", "impact_batch", "impact_outcomes"]
 
 
 def _check_parts(mech: object, contact: object, law: object) -> None:
@@ -241,6 +244,47 @@ def _stacked(mech: Mechanism, Q: NDArray[np.float64], V: NDArray[np.float64], co
         return result
     except _Unfilled:  # a bad configuration, or a contact that raises or gives arrays of other shapes:
         return None    # the row-by-row route raises the first bad row's error, in row order
+
+
+def impact_outcomes(mech: Mechanism, q: ArrayLike, v: ArrayLike, contact: Contact, law: ImpactLaw) -> ImpactOutcomes:
+    """The impact of :func:`impact` as a random variable over the microrelief, (2.6)–(2.7).
+
+    Parameters
+    ----------
+    mech, q, v, contact
+        As for :func:`impact`.
+    law : RoughLaw
+        A rough law without ``repeat``.
+
+    Returns
+    -------
+    ImpactOutcomes
+        ``mean`` is :func:`impact`'s result; the facets met, their flux weights, each facet's impact,
+        samples and spread as :meth:`mbimpact.RoughLaw.outcomes` gives them, at ``A = pin.crba(q)`` and
+        the contact's Jacobian.
+
+    Raises
+    ------
+    ParameterError
+        ``law`` is not a rough law or repeats micro-impacts; arguments of the wrong kind.
+    ShapeError, NonFiniteError, NoImpactError, NoFacingFacetError, RoughnessError
+        As :func:`impact` raises them.
+    """
+    from .laws.outcomes import outcomes_at_metric  # deferred: a single impact does not need it
+    from .laws.rough import RoughLaw
+
+    _check_parts(mech, contact, law)
+    if not isinstance(law, RoughLaw):
+        raise ParameterError(f"outcomes are those of a rough law (RoughLaw), got {type(law).__name__}")
+    mean = impact(mech, q, v, contact, law)
+    q, v = mech.check_state(q, v)
+    d = law.dim or 3
+    J, R = contact.jacobian(mech, q, d)
+    if J.shape != (d, mech.nv) or R.shape != (d, d):
+        raise ShapeError(f"{type(contact).__name__}.jacobian must return J of shape ({d}, {mech.nv}) and a frame R "
+                         f"of shape ({d}, {d}); got {J.shape} and {R.shape}")
+    J.setflags(write=False)
+    return outcomes_at_metric(law, ContactMetric.from_mechanism(mech, q, J), v, R, mean)
 
 
 class _Unfilled(Exception):

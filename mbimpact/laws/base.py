@@ -45,7 +45,7 @@ from .compiled import RANK_FLOOR, finish_prepared
 if TYPE_CHECKING:
     from .compiled import CompiledImpact
 
-__all__ = ["ImpactLaw"]
+__all__ = ["ImpactLaw", "WrappedLaw"]
 
 
 class ImpactLaw(ABC):
@@ -291,3 +291,19 @@ class ImpactLaw(ABC):
             warn(NoSeparationWarning, f"{self!r}: {approaching.size} of {len(V)} contacts still approach the surface "
                  f"after the impact (kappa < 0, e.g. row {approaching[0]}); {self.separation_advice()}")
         return result
+
+
+class WrappedLaw(ImpactLaw):
+    """A law that runs another law's pipeline with a core of its own (the rough law at given speeds, the
+    outcome machinery's capture and replay of impulses): its dimension, restitution and name are the
+    wrapped law's; a subclass implements :meth:`contact_impulses`."""
+
+    def __init__(self, law: ImpactLaw) -> None:
+        self.law, self.e = law, law.e
+
+    @property
+    def dim(self) -> int | None:
+        return self.law.dim
+
+    def __repr__(self) -> str:
+        return repr(self.law)

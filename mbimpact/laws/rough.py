@@ -7,10 +7,10 @@ the flux weights (2.7) stay, only the impulse of one facet changes.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..averaging import AUTO_ORDER, METHODS, Averaging, Graded, Ring
 from ..averaging.integrand import AveragingSpec, Flux, check_flux, general_facets
@@ -23,10 +23,13 @@ from ..metric.delassus import ContactMetric
 from ..results.impact import ContactImpulses
 from ..roughness.base import Roughness
 from ..roughness.cone import Cone
-from .base import ImpactLaw
+from .base import ImpactLaw, WrappedLaw
 from .compiled import CompiledImpact
 from .cone_plan import cone_impact
 from .repeat import repeated
+
+if TYPE_CHECKING:
+    from ..results.outcomes import ImpactOutcomes
 
 __all__ = ["RoughLaw"]
 
@@ -308,6 +311,22 @@ class RoughLaw(ImpactLaw):
             speed = big * np.linalg.norm(U / big[:, None], axis=1)  # as ImpactLaw.impulses computes it
         return _AtSpeeds(self, speed).impulses(metric, U, R)
 
+    def outcomes(self, A: ArrayLike, J: ArrayLike, v: ArrayLike, frame: ArrayLike) -> ImpactOutcomes:
+        """The impact of :meth:`apply` as a random variable over the microrelief, (2.6)–(2.7): its mean
+        (:meth:`apply` itself), the facets met with their flux weights and each facet's impact, samples
+        and spread (:class:`~mbimpact.ImpactOutcomes`, :mod:`mbimpact.laws.outcomes`). Arguments and
+        errors as :meth:`apply`; a :class:`ParameterError` with ``repeat=True``."""
+        from .outcomes import rough_outcomes  # deferred: it builds on this module
+
+        return rough_outcomes(self, A, J, v, frame)
+
+    def outcomes_batch(self, A: ArrayLike, J: ArrayLike, V: ArrayLike, frame: ArrayLike
+                       ) -> tuple[ImpactOutcomes, ...]:
+        """:meth:`outcomes` of every row of ``V`` (B, n) at one configuration, in row order."""
+        from .outcomes import rough_outcomes_batch
+
+        return rough_outcomes_batch(self, A, J, V, frame)
+
     def compiled_impact(self) -> CompiledImpact | None:
         """One velocity on a :class:`~mbimpact.Cone` by ``"auto"``: the whole impact in one compiled call
         (:func:`mbimpact.laws.compiled_cone.cone_impact`), running the compiled steps of the rules of
@@ -404,22 +423,16 @@ class RoughLaw(ImpactLaw):
         return methods
 
 
-class _AtSpeeds(ImpactLaw):
+class _AtSpeeds(WrappedLaw):
     """A rough law with a speed-dependent facet law at given row speeds: the pipeline of
     :meth:`ImpactLaw.impulses` with :meth:`RoughLaw.contact_impulses_at` as its core."""
 
     def __init__(self, law: RoughLaw, speed: NDArray[np.float64]) -> None:
-        self.law, self.speed, self.e = law, speed, law.e
-
-    @property
-    def dim(self) -> int | None:
-        return self.law.dim
-
-    def __repr__(self) -> str:
-        return repr(self.law)
+        super().__init__(law)
+        self.rough, self.speed = law, speed
 
     def contact_impulses(self, W: NDArray[np.float64], U: NDArray[np.float64]) -> ContactImpulses:
-        return self.law.contact_impulses_at(W, U, self.speed)
+        return self.rough.contact_impulses_at(W, U, self.speed)
 
 
 def _facet_law(e: object, k: float | None, facet: object) -> FacetLaw:

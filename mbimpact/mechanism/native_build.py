@@ -2,7 +2,7 @@
 
 ``pyproject.toml`` names this module as its PEP 517 backend (``backend-path``). Every hook is
 setuptools' own; the only change is that the setup it runs declares the extension
-``mbimpact.mechanism.native``, compiled against the Pinocchio, Boost and Eigen headers that the
+``mbimpact.mechanism.native`` (``native.cpp`` and ``native_contact.cpp``), compiled against the Pinocchio, Boost and Eigen headers that the
 build environment's ``pin`` and ``cmeel-eigen`` wheels carry, and linked to their libraries. The
 extension is optional: where it cannot be built (no C++ compiler, headers missing), the install
 goes on without it and :mod:`mbimpact.mechanism.front` says why it is absent; every result is then
@@ -49,7 +49,7 @@ def extension() -> Any:
     includes = [str(p / "include") for p in prefixes] + [str(p / "include" / "eigen3") for p in prefixes]
     return Extension(
         "mbimpact.mechanism.native",
-        sources=["mbimpact/mechanism/native.cpp"],
+        sources=["mbimpact/mechanism/native.cpp", "mbimpact/mechanism/native_contact.cpp"],
         include_dirs=includes,
         library_dirs=[str(p / "lib") for p in prefixes],
         libraries=["pinocchio_default", f"boost_python{sys.version_info[0]}{sys.version_info[1]}"],

@@ -10,6 +10,10 @@ friction cone with the declared μ. A collision pair rests on every point of its
 Along each step's path the open contacts keep their event detection, and so does every
 further point of a resting pair: a box resting on an edge whose other edge comes down strikes
 there by its law, at the instant the edge lands.
+
+Where every contact is a frame contact on a fixed plane, the steps between events run in one
+compiled call (:mod:`~mbimpact.simulation.compiled_steps`), the same steps to rounding; this module
+takes the steps at which something happens.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from .compiled_steps import compiled_steps
 from .impacts import Impacts
 from .run import RunState, Stop
 from .scene_contacts import SceneContact
@@ -36,6 +41,7 @@ class Persistent:
 
     def __init__(self, state: RunState, impacts: Impacts) -> None:
         self.state, self.impacts = state, impacts
+        self.compiled = compiled_steps(state)  # the step's compiled backend, where the scene's contacts allow it
 
     def contact_phase(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]
                       ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
@@ -43,6 +49,21 @@ class Persistent:
         gaps0 = self.state.kin.gaps(q, t)
         instant = 0  # events in a row at the same instant
         while t < scene.duration and any(self.state.active):
+            if self.compiled is not None:
+                taken = self.compiled.take(t, q, v, gaps0)
+                t, q, v, gaps0 = taken.t, taken.q, taken.v, taken.gaps
+                if taken.steps:
+                    instant = 0
+                if taken.reason in ("lift", "full", "budget"):
+                    # its last step is taken: what the Python route does after a step
+                    if taken.reason == "lift":
+                        self.lift_offs(t, taken.gaps, taken.rates)
+                    self.emit_samples(t, q, v)
+                    self.state.check_limits(t)
+                    continue
+                # else the Python route takes this step
+                if t >= scene.duration:
+                    break
             h = min(scene.contact_step, scene.duration - t)
             free = self.free_velocity(t, q, v, h)
             if self.separating(t, q, v, free[0], h, gaps0):
@@ -52,6 +73,8 @@ class Persistent:
             v1 = self.state.transport(q, q1, w)
             gaps1, rates1 = self.state.kin.rates(q1, v1, t + h)
             hit = self.path_crossing(t, q, w, h, gaps0, gaps1, rates1)
+            if hit is not None and hit[0] == 0.0 and self.pushed_in(t, q, v, hit[1]):
+                continue  # the contact joined the persistent ones: the step again, with it
             if hit is not None:
                 s, group = hit
                 pushing, forces = list(self.state.pushing), self.state.forces.copy()
@@ -60,7 +83,9 @@ class Persistent:
                     # the velocity of a step of length s, on the path the crossing was found on (so that
                     # the struck point is on its surface)
                     q_s, t_s = self.state.step_configuration(q, s * w), t + s
-                    v_s = self.state.transport(q, q_s, self.step_velocity(t, q, v, s))
+                    # with the gap term over the whole step: gap/s for a crossing found 1e-15 s into the step
+                    # was a huge velocity (energy blow-ups of passive scenes)
+                    v_s = self.state.transport(q, q_s, self.step_velocity(t, q, v, s, horizon=h))
                 gaps, rates = self.state.kin.rates(q_s, v_s, t_s)
                 if any(self.state.active[i] and gaps[i] < -0.1 * self.state.band for i in range(self.state.nc)):
                     # the persistent points drift O(s²) below their surfaces inside a step: back on them
@@ -91,11 +116,15 @@ class Persistent:
             t, q, v, gaps0 = t + h, q1, v1, gaps1
             self.state.work["contact_steps"] += 1
             self.lift_offs(t, gaps1, rates1)
-            while self.state.next_sample < len(self.state.grid) and self.state.grid[self.state.next_sample] <= t + 1e-12:
-                self.state.next_sample += 1
-                self.state.emit(t, q, v)
+            self.emit_samples(t, q, v)
             self.state.check_limits(t)
         return t, q, v
+
+    def emit_samples(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> None:
+        """The output grid's samples up to the end t of a step, at its state."""
+        while self.state.next_sample < len(self.state.grid) and self.state.grid[self.state.next_sample] <= t + 1e-12:
+            self.state.next_sample += 1
+            self.state.emit(t, q, v)
 
     def free_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float
                       ) -> tuple[NDArray[np.float64], Solve]:
@@ -124,10 +153,13 @@ class Persistent:
         return v_free, solve
 
     def step_velocity(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], h: float,
-                      free: tuple[NDArray[np.float64], Solve] | None = None) -> NDArray[np.float64]:
+                      free: tuple[NDArray[np.float64], Solve] | None = None, horizon: float | None = None
+                      ) -> NDArray[np.float64]:
         """One step of Moreau's scheme: v⁺ = v + h a_free + A⁻¹ Jcᵀ λ with λ on the cones (v⁺ expressed
         at q; the step then moves q along q ⊕ s v⁺), and the contact forces of the step. ``free``:
-        :meth:`free_velocity` of this step, when already computed."""
+        :meth:`free_velocity` of this step, when already computed. ``horizon``: the time over which the
+        persistent points' gaps are closed (default h; a sub-step up to a crossing closes them over the
+        whole step)."""
         active = [i for i in range(self.state.nc) if self.state.active[i]]
         v_free, solve = self.free_velocity(t, q, v, h) if free is None else free
         states = self.state.kin.states(q, v_free, t, active)
@@ -146,7 +178,7 @@ class Persistent:
             else:
                 u = s.u
             g[3 * k: 3 * k + 3] = s.frame.T @ u
-            g[3 * k + 2] += s.gap / h  # the predicted gap at the step's end stays ≥ 0
+            g[3 * k + 2] += s.gap / (h if horizon is None else horizon)  # the predicted gap at the end stays ≥ 0
         mus = tuple(self.state.frictions[s.index] for s in states)
         if any(mus):
             self.state.work["friction_cone"] += 1
@@ -221,14 +253,19 @@ class Persistent:
         """Back onto the surfaces: the step moves a persistent contact off its surface by O(h²) (a
         rotating body's points move along straight lines for a step). When that puts a contact below
         its surface, the smallest change of q in the kinetic metric that puts the pushing points
-        (and any below the surface) at gap 0."""
-        active = [i for i in range(self.state.nc) if self.state.active[i]]
+        (and any contact below its surface) at gap 0.
+
+        Open contacts are held too: putting the resting points back moves the others, and an open
+        contact about to strike was pushed below its surface by it (by up to 3e-6 m)."""
+        band = 0.1 * self.state.band
         for _ in range(3):
             # the next step's gap term closes small drifts; a drift below the surface is projected now
-            if not any(gaps[i] < -0.1 * self.state.band for i in active):
+            below = [i for i in range(self.state.nc) if gaps[i] < -band]
+            if not below:
                 return q
-            rows = [s for s in self.state.kin.states(q, np.zeros(self.state.nv), t, active)
-                    if self.state.pushing[s.index] or s.gap < 0.0]
+            held = [i for i in range(self.state.nc) if i in below or (self.state.active[i] and self.state.pushing[i])]
+            rows = [s for s in self.state.kin.states(q, np.zeros(self.state.nv), t, held)
+                    if self.state.pushing[s.index] and self.state.active[s.index] or s.gap < 0.0]
             Jn = np.array([s.normal @ s.J for s in rows])
             A, factor = self.state.mech.factorise(q)
             AinvJt = factor.solve(Jn.T)
@@ -251,7 +288,19 @@ class Persistent:
         tol = self.state.band
         xtol = 4 * np.finfo(float).eps * max(1.0, h)
         first: tuple[float, list[int]] | None = None
+
+        def down(f: Callable[[float], float], a: float) -> float | None:
+            """Where f goes below 0 on [a, h]: a when it is there already, None when it ends above (the
+            path's start is rounded by :meth:`step_configuration`, so f(a) is evaluated, never assumed)."""
+            fa = f(a)
+            if fa < 0.0:
+                return a
+            if f(h) >= 0.0:
+                return None
+            return float(brentq(f, a, h, xtol=xtol)) if fa > 0.0 else a
+
         for i in range(self.state.nc):
+            s: float | None
             if self.state.active[i]:
                 if not (self.state.kin.is_pair(i) and g1[i] < -0.1 * tol and r1[i] < -self.state.scene.rest_velocity):
                     continue
@@ -259,20 +308,54 @@ class Persistent:
                 gap = self.state.kin.material_gap(i, self.state.step_configuration(q, h * v1), t + h)
                 if gap(q) <= 0.0:  # on the surface already: a resting point drifting, for the projection
                     continue
-                s = brentq(lambda s, gap=gap: gap(self.state.step_configuration(q, s * v1)), 0.0, h, xtol=xtol)
+                def material(s: float, gap: Callable[[NDArray[np.float64]], float] = gap) -> float:
+                    return gap(self.state.step_configuration(q, s * v1))
+
+                s = down(material, 0.0)
             else:
                 if not self.state.armed[i] and g0[i] > tol:
                     self.state.armed[i] = True
-                if not (g1[i] < 0.0 and (self.state.armed[i] or r1[i] < 0.0)):
+                if not g1[i] < 0.0:
                     continue
-                if g0[i] < 0.0:
-                    s = 0.0
+
+                def along(s: float, i: int = i) -> float:
+                    return float(self.state.kin.gaps(self.state.step_configuration(q, s * v1), t + s)[i])
+
+                if self.state.armed[i] or r1[i] < 0.0:
+                    s = down(along, 0.0)
                 else:
-                    s = brentq(lambda s, i=i: float(self.state.kin.gaps(self.state.step_configuration(q, s * v1), t + s)[i]), 0.0, h,
-                               xtol=xtol)
-            if first is None or s < first[0]:
+                    # disarmed after an impact, and below its surface at the step's end though leaving it
+                    # there: the step's path rose and came back down (the point of a turning body), a
+                    # strike after the apex; or the step pushed it in from the start
+                    s = self.rearmed(along, h, xtol)
+            if s is not None and (first is None or s < first[0]):
                 first = (s, [i])
         return first
+
+    def pushed_in(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], group: list[int]) -> bool:
+        """Open contacts of ``group`` that the step pushes below their surfaces from its start while v
+        itself does not approach them (a contact thrown off by an impact elsewhere, pulled back by the
+        persistent contacts' impulses): no impact can happen at v, so they join the persistent contact
+        and the cone problem decides whether they push or lift off. Whether any did."""
+        _, rates = self.state.kin.rates(q, v, t)
+        joined = [i for i in group if not self.state.active[i] and rates[i] >= 0.0]
+        for i in joined:
+            self.state.active[i], self.state.armed[i] = True, False
+            self.state.event(ContactEvent(t, i, "rest", float(rates[i]), rule="pushed back by the contact step"))
+        return bool(joined)
+
+    def rearmed(self, along: Callable[[float], float], h: float, xtol: float) -> float | None:
+        """The strike of a disarmed contact found below its surface at the end of a step (gap ``along(s)``
+        on the step's path): after the highest of a few points of the path, where the gap comes down
+        through 0; at the step's start if it never rose above its surface."""
+        from scipy.optimize import brentq
+
+        ss = np.linspace(0.0, h, 6)
+        fs = [along(float(s)) for s in ss]
+        top = int(np.argmax(fs))
+        if fs[top] <= 1e-3 * self.state.band or top == len(ss) - 1:
+            return 0.0
+        return float(brentq(along, float(ss[top]), h, xtol=xtol))
 
     def lift_offs(self, t: float, gaps: NDArray[np.float64], rates: NDArray[np.float64]) -> None:
         """A persistent contact whose gap opened (the cone gave it no push) becomes open."""

@@ -32,7 +32,7 @@ from .scene import Scene
 from .scene_contacts import SceneContact
 from .trajectory import ContactEvent
 
-__all__ = ["BAND_MAX", "RunState", "Stop", "scene_law", "Progress"]
+__all__ = ["BAND_MAX", "ENERGY_SLACK", "CONTACT_ENERGY_RATE", "RunState", "Stop", "scene_law", "passive", "Progress"]
 
 #: A progress callback: ``progress(percent, note)`` is called as the simulated time passes each percent of the
 #: scene's duration (at most 100 times a run), with a short note of the work done.
@@ -48,6 +48,32 @@ RATE_WINDOW = 0.01
 #: large one (1e308 is valid) held a contact 7 cm above its surface in persistent contact — it would strike
 #: at a distance at t = 0, and never lifted off, its flight integrated by first-order contact steps (#14).
 BAND_MAX = 1e-8
+
+
+#: The energy a passive run may gain beyond its flight's integration error, as a fraction of its energy scale
+#: |E₀| + |E| + 1 J. Impacts by passive laws only dissipate; a larger gain is a defect of the run, stopped as
+#: ``energy_growth``.
+ENERGY_SLACK = 1e-6
+#: Beyond it, once a run has taken persistent-contact steps, ``CONTACT_ENERGY_RATE · contact_step`` of the
+#: scale [1/s]: Moreau's scheme is first order, and while a contact slides its energy oscillates by O(h) (a
+#: frictionless double pendulum's tip sliding on a floor: 2.5e-6 of the scale at h = 1 ms, 2e-5 at 4 ms;
+#: legged robots and boxes resting: 1e-13 to 1e-10). The blow-ups this guards against gain 1e4 times the scale.
+CONTACT_ENERGY_RATE = 10.0
+
+
+def passive(scene: Scene) -> bool:
+    """No energy enters the scene: fixed surfaces, no declared torques or PD, and no law that may create
+    energy (Coulomb's with Newton's kinematic restitution, on its own or as the facets of a rough law)."""
+    if scene.torque is not None or scene.pd is not None:
+        return False
+    for c in scene.contacts:
+        if isinstance(c, SceneContact) and c.surface.moving:
+            return False
+        law = c.law
+        facet = law.facet if isinstance(law, RoughLaw) else law
+        if getattr(facet, "restitution", None) == "newton":
+            return False
+    return True
 
 
 def scene_law(law: ImpactLaw) -> ImpactLaw:
@@ -102,6 +128,7 @@ class RunState:
         self.grid = np.linspace(0.0, scene.duration, max(2, samples))
         self.next_sample = 1
         self.out_t: list[float] = []
+        self.out_contact: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
         self.out_q: list[NDArray[np.float64]] = []
         self.out_v: list[NDArray[np.float64]] = []
         self.out_active: list[tuple[bool, ...]] = []
@@ -124,6 +151,9 @@ class RunState:
         self.max_step = min(1.0 / (16.0 * max(freqs)) if freqs else math.inf, scene.duration / 4)
         self.progress = progress
         self.shown = 0
+        self.passive = passive(scene)
+        self.energy_data = self.model.createData()
+        self.energy0: float | None = None
 
     # ---------------------------------------------------------------- forces and dynamics
     def torque(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64], damped: bool = True
@@ -182,7 +212,10 @@ class RunState:
         out = pin.integrate(self.model, q, dq)
         R = pin.Quaternion(q[3:7]).matrix()
         out[:3] = q[:3] + R @ dq[:3]
-        out[3:7] = pin.Quaternion(R @ pin.exp3(dq[3:6])).coeffs()
+        quat = pin.Quaternion(R @ pin.exp3(dq[3:6])).coeffs()
+        # normalised every step: the rounding of the rotation product would otherwise accumulate over
+        # thousands of contact steps until q is no longer a configuration (a sphere spinning on a plane)
+        out[3:7] = quat / np.linalg.norm(quat)
         return out
 
     def transport(self, q0: NDArray[np.float64], q1: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -199,12 +232,51 @@ class RunState:
         return isinstance(c, SceneContact) and c.surface.moving
 
     # ---------------------------------------------------------------- bookkeeping
-    def emit(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> None:
+    def emit(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64],
+             contact: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None) -> None:
+        """Record the state at t (``contact``: its gaps and rates, where the phase computed them). The
+        output runs forward in time: grid times before t that were not emitted (passed inside a
+        persistent-contact step that ended at an impact) are dropped, never emitted later from a phase
+        that starts after them — a free flight's dense output would extrapolate them backwards with the
+        post-impact velocity, below the surfaces."""
+        while self.next_sample < len(self.grid) and self.grid[self.next_sample] < t:
+            self.next_sample += 1
         self.out_t.append(t)
+        self.out_contact.append(contact)
         self.out_q.append(q.copy())
         self.out_v.append(v.copy())
         self.out_active.append(tuple(self.active))
         self.out_forces.append(self.forces.copy() if any(self.active) else np.zeros((self.nc, 3)))
+        if self.passive:
+            self.check_energy(t, q, v)
+
+    def energy(self, q: NDArray[np.float64], v: NDArray[np.float64]) -> float:
+        """Kinetic plus potential energy at (q, v) [J]."""
+        # a workspace of its own: the kinematics of the contacts stay as the caller left them
+        out = float(pin.computeKineticEnergy(self.model, self.energy_data, q, v))
+        if self.scene.gravity:
+            out += float(pin.computePotentialEnergy(self.model, self.energy_data, q))
+        return out
+
+    def check_energy(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> None:
+        """Stop a passive run (status "energy_growth") whose energy rose above its start by more than the
+        flight's integration error (twice the fuzzers' bound of 2 rtol per free step, of the scale),
+        :data:`ENERGY_SLACK` of the scale and, after persistent contact, the first-order error of its steps
+        (:data:`CONTACT_ENERGY_RATE`). The state was recorded: the output ends where it grew."""
+        e = self.energy(q, v)
+        if self.energy0 is None:
+            self.energy0 = e
+            return
+        rtol = max(self.scene.rtol, 100 * np.finfo(float).eps)
+        scale = abs(self.energy0) + abs(e) + 1.0
+        slack = scale * (ENERGY_SLACK + 4.0 * rtol * (self.work["free_steps"] + 1))
+        if self.work["contact_steps"]:
+            slack += scale * CONTACT_ENERGY_RATE * self.scene.contact_step
+        if not e - self.energy0 <= slack:  # a NaN energy is growth too
+            self.passive = False  # reported once
+            raise Stop("energy_growth", f"the energy of a passive scene rose by {e - self.energy0:.3g} J (from "
+                                        f"{self.energy0:.9g} J to {e:.9g} J) by t = {t:.9g}, beyond its integration "
+                                        f"error ({slack:.3g} J): a defect of the run; please report the scene")
 
     def event(self, e: ContactEvent) -> None:
         self.events.append(e)

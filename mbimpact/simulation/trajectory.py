@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 __all__ = ["ContactEvent", "ImpactRecord", "Trajectory", "STATUSES"]
 
 #: How a run ends. Only "completed" means the whole duration was simulated with every guarantee kept.
-STATUSES = ("completed", "max_impacts", "event_limit", "wall_time", "penetration", "integration_error")
+STATUSES = ("completed", "max_impacts", "event_limit", "wall_time", "penetration", "integration_error", "energy_growth")
 
 EventKind = Literal["impact", "rest", "lift", "stick", "slip"]
 
@@ -94,7 +94,7 @@ class Trajectory:
         (world frame, on the mechanism) [N]; 0 for open contacts and in free flight.
     events : list of ContactEvent
     work : Counter
-        What was computed: ``free_steps``, ``contact_steps``, ``facet_average``, ``newton_impact``,
+        What was computed: ``free_steps``, ``contact_steps`` (``compiled_contact_steps`` of them in one compiled call), ``facet_average``, ``newton_impact``,
         ``friction_cone``, ``gravity``, ``damping``, ``surface_motion``, …
     status : str
         One of :data:`STATUSES`.

@@ -63,9 +63,10 @@ Rows (``part == "mujoco"``):
   prediction and tolerance of :data:`TOLERANCES`: the cheapest setting of each simulator whose worst
   error is within the tolerance; ``param`` the tolerance, ``error`` MuJoCo's error there,
   ``seconds`` MuJoCo's wall time, ``ratio`` MuJoCo's over mbimpact's (NaN: not reached).
-* contact-phase rows (``case`` starting with :data:`STANDING`): Solo12 standing on its point feet
+* contact-phase rows (``case`` starting with one of :data:`STANDING`): Solo12 standing on its point
+  feet, and in full runs Talos on its soles' corners and a UR5 resting its tool on a table
   (:func:`~mbimpact.apps.bench.mujoco_standing.standing_rows`); ``param`` simulated seconds per wall
-  second, ``error`` the largest difference of a foot's height from mbimpact's at the end [m],
+  second, ``error`` the largest difference of a contact point's height from mbimpact's at the end [m],
   ``seconds`` the median warm wall time, ``ratio`` over mbimpact's.
 
 A scene MuJoCo cannot load or express gives one row whose ``method`` is
@@ -106,7 +107,7 @@ def available() -> bool:
 def mujoco_rows(quick: bool, progress: Progress) -> list[BenchRow]:
     """Rows of part ``"mujoco"`` (see the module docstring).
 
-    Three progress steps: the ball and the sphere, the two robots, Solo12 standing.
+    Three progress steps: the ball and the sphere, the two robots, the contact phases.
     """
     import mujoco
 
@@ -156,8 +157,8 @@ def format_rows(rows: list[BenchRow]) -> str:
         lines += [f"| {r.case} | {r.param:.0e} | {r.method.split(': ', 1)[1]} | {_num(r.error, '+.2e')} "
                   f"| {_num(r.seconds, '.3g')} | {_num(r.ratio, '.3g') or 'not reached'} |" for r in equal]
     if standing:
-        lines += ["", f"### Contact phase: Solo12 standing on four point feet, PD torques", "",
-                  "| case | simulator, setting: outcome | simulated s per wall s | feet heights' largest difference "
+        lines += ["", "### Contact phase: robots standing or resting on their contact points, PD torques", "",
+                  "| case | simulator, setting: outcome | simulated s per wall s | contact heights' largest difference "
                   "to mbimpact's [m] | wall s | wall s / mbimpact's |", "|---|---|---|---|---|---|"]
         lines += [f"| {r.case} | {r.method} | {_num(r.param, '.3g')} | {_num(r.error, '.2g')} | {_num(r.seconds, '.3g')} "
                   f"| {_num(r.ratio, '.3g')} |" for r in standing]

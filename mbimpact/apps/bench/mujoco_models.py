@@ -24,12 +24,12 @@ from ...simulation import Scene, SceneCollision, SceneContact
 from .mujoco_contact import SOLIMP, contact_solref, friction_solref
 
 __all__ = ["Unsupported", "Init", "impact_law", "ball_xml", "sphere_xml", "robot_xml", "standing_xml",
-           "initial_state", "first_line", "BALL_RADIUS", "FOOT_RADIUS"]
+           "point_heights", "initial_state", "first_line", "BALL_RADIUS", "FOOT_RADIUS"]
 
 #: Radius of MuJoCo's ball [m] (mbimpact's is a point: only its lowest point matters).
 BALL_RADIUS = 0.05
 
-#: Radius of the spheres standing for Solo12's point feet in MuJoCo [m].
+#: Radius of the spheres standing for point contacts (Solo12's feet, Talos's sole corners) in MuJoCo [m].
 FOOT_RADIUS = 0.005
 
 Init = Callable[[Any, Any], None]  # sets the initial state of MjData
@@ -213,28 +213,46 @@ def robot_xml(mujoco: Any, scene: Scene, dt: float, integrator: str, stiffness: 
 
 
 def standing_xml(mujoco: Any, scene: Scene, dt: float, integrator: str, tmp: Path) -> str:
-    """MJCF of Solo12 on point feet: a sphere of :data:`FOOT_RADIUS` centred at each foot frame, the ground
-    lowered by that radius (a sphere touches when its centre, mbimpact's foot point, is at z = 0).
+    """MJCF of a robot on point contacts: a sphere of :data:`FOOT_RADIUS` centred at each contact point
+    (geom ``point<i>`` of the scene's contact i, in the body of its frame), each fixed plane of the scene
+    (geom ``plane<k>``) moved back along its normal by that radius (a sphere touches when its centre,
+    mbimpact's contact point, is on mbimpact's plane).
 
     The contact is MuJoCo's own choice for this step: ``solref = (2 dt, 1)``, critically damped at the
     shortest time constant MuJoCo accepts for dt (its ``refsafe`` limit), flat :data:`SOLIMP`."""
     _, mu = impact_law(scene)
-    feet = [c.frame for c in scene.contacts if isinstance(c, SceneContact)]
-    if len(feet) != len(scene.contacts):
+    contacts = [c for c in scene.contacts if isinstance(c, SceneContact)]
+    if len(contacts) != len(scene.contacts):
         raise Unsupported("only point contacts")
+    if any(c.surface.kind != "plane" or c.surface.amplitude != 0.0 for c in contacts):
+        raise Unsupported("only fixed planes")
     root, worldbody = _robot_root(mujoco, scene, dt, integrator, tmp)
-    worldbody.insert(0, ET.Element("geom", name="ground", type="plane", size="0 0 1",
-                                   pos=f"0 0 {-FOOT_RADIUS!r}", contype="0", conaffinity="0"))
+    planes: dict[tuple[float, ...], str] = {}
+    for c in contacts:
+        key = (*c.surface.normal, float(c.surface.normal @ c.surface.origin))
+        if key not in planes:
+            planes[key] = f"plane{len(planes)}"
+            worldbody.insert(0, ET.Element("geom", name=planes[key], type="plane", size="0 0 1",
+                                           pos=_vec(c.surface.origin - FOOT_RADIUS * c.surface.normal),
+                                           zaxis=_vec(c.surface.normal), contype="0", conaffinity="0"))
     bodies = {b.get("name"): b for b in worldbody.iter("body")}
     contact = ET.SubElement(root, "contact")
-    for foot in feet:
-        if foot not in bodies:
-            raise Unsupported(f"no body {foot} in MuJoCo's import")
-        ET.SubElement(bodies[foot], "geom", name=f"{foot}_point", type="sphere", size=repr(FOOT_RADIUS),
-                      mass="0", contype="0", conaffinity="0")
-        ET.SubElement(contact, "pair", geom1="ground", geom2=f"{foot}_point", condim="3",
+    for i, c in enumerate(contacts):
+        if c.frame not in bodies:
+            raise Unsupported(f"no body {c.frame} in MuJoCo's import")
+        ET.SubElement(bodies[c.frame], "geom", name=f"point{i}", type="sphere", size=repr(FOOT_RADIUS),
+                      pos=_vec(c.point), mass="0", contype="0", conaffinity="0")
+        plane = planes[(*c.surface.normal, float(c.surface.normal @ c.surface.origin))]
+        ET.SubElement(contact, "pair", geom1=plane, geom2=f"point{i}", condim="3",
                       friction=f"{mu!r} {mu!r} 0 0 0", solref=f"{2 * dt!r} 1", solimp=_vec(SOLIMP))
     return ET.tostring(root, encoding="unicode")
+
+
+def point_heights(m: Any, d: Any, scene: Scene) -> NDArray[np.float64]:
+    """Heights above their planes of the centres of :func:`standing_xml`'s spheres (mbimpact's gaps)."""
+    contacts = [c for c in scene.contacts if isinstance(c, SceneContact)]
+    return np.array([float(c.surface.normal @ (d.geom_xpos[m.geom(f"point{i}").id] - c.surface.origin))
+                     for i, c in enumerate(contacts)])
 
 
 def initial_state(m: Any, d: Any, *, scene: Scene) -> None:
