@@ -1,16 +1,18 @@
 // Persistent-contact steps of a simulation run in one call: the steps of
 // mbimpact/simulation/persistent.py (Moreau's scheme on Coulomb cones) for frame contacts on fixed
-// planes, operation for operation, on Pinocchio's C++ algorithms.
+// planes, the same algorithm on Pinocchio's C++ algorithms.
 //
 // The call takes the run's state and steps until something needs the Python route: every contact
 // about to lift off by itself (`separating`), an open contact crossing its surface, a cone problem
-// the solver does not settle, a lift-off or a penetration at a step's end. It then returns with the state of its last completed step; the Python
-// route treats that step from there, so that a run takes the same steps and events whichever route
-// computes them, and their results agree to rounding and to the cone solver's tolerance.
+// the solver does not settle, a lift-off or a penetration at a step's end. It then returns with the
+// state of its last completed step; the Python route treats that step from there, so that a run
+// takes the same steps and events whichever route computes them, and their results agree to
+// rounding and to the cone solver's tolerance.
 //
-// The cone problem of a step is solved by projected Gauss-Seidel with the block update of
-// Pinocchio's PGSConstraintSolver for Coulomb cones (pgs-solver.hxx): the library instantiates that
-// solver for its Cholesky Delassus expression only, and the step's Delassus matrix is dense.
+// The cone problem of a step is solved by its sticking solution where that holds, else by projected
+// Gauss-Seidel with the block update of Pinocchio's PGSConstraintSolver for Coulomb cones
+// (pgs-solver.hxx): the library instantiates that solver for its Cholesky Delassus expression only,
+// and the step's Delassus matrix is dense.
 
 #include <algorithm>
 #include <cmath>

@@ -1,16 +1,17 @@
 """Persistent-contact steps in one compiled call: the backend of :mod:`~mbimpact.simulation.persistent`'s
 step for frame contacts on fixed planes.
 
-Moreau's step of a legged robot standing on its feet is a few microseconds of Pinocchio's work (ABA,
-CRBA and its factor, the contact Jacobians, the Delassus matrix, a cone problem) and, around it, a
-millisecond of Python. :func:`mbimpact.mechanism.native` ``contact_steps`` (``native_contact.cpp``)
-takes the steps in C++, the same operations as the Python step, until something happens that the
-Python route treats: every persistent contact leaving by itself, an open contact crossing its surface,
-a point to project back, a cone problem its solver does not settle, a lift-off or a penetration. It
-returns the state of its last completed step, and the Python route takes the next step from there, so
-a run takes the same steps and events on either route, with results equal to rounding and to the cone
-solver's tolerance (Pinocchio's ADMM on the Python route, projected Gauss–Seidel with Pinocchio's
-Coulomb block update in C++).
+Moreau's step of a legged robot standing on its feet is a few microseconds of Pinocchio's work (CRBA
+and its factor, the nonlinear effects, the contact Jacobians, the Delassus matrix, a cone problem)
+and, around it, a millisecond of Python. :func:`mbimpact.mechanism.native` ``contact_steps``
+(``native_contact.cpp``) takes the steps in C++, the same algorithm as the Python step, projections
+back onto the surfaces included, until something happens that the Python route treats: every
+persistent contact leaving by itself, an open contact crossing its surface, a cone problem its
+solver does not settle, a lift-off or a penetration. It returns the state of its last completed
+step, and the Python route takes the next step from there, so a run takes the same steps and events
+on either route, with results equal to rounding and to the cone solver's tolerance (Pinocchio's ADMM
+on the Python route; in C++ the sticking solution where it holds, else projected Gauss–Seidel with
+Pinocchio's Coulomb block update).
 
 Used where the compiled front end is (:func:`mbimpact.mechanism.front.status`) and every contact of
 the scene is a frame contact on a fixed plane; :func:`compiled_steps` says whether a run can.
