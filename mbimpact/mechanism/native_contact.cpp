@@ -69,6 +69,8 @@ struct Run {
   double band, tolerance, kp, kd, damping;
   bool free_flyer, has_pd, has_damper;
   Data::Matrix6x J6;
+  Vec torques, bias;  // work arrays of free_velocity, reused every step
+  Mat K;
 
   Vec3 point(const Contact& k) const {
     const auto& M = d.oMi[k.joint];
@@ -127,19 +129,18 @@ struct Run {
   bool free_velocity(const Vec& q, const Vec& v, double h, Mat& A, Eigen::LLT<Mat>& llt, Vec& vfree) {
     pinocchio::crba(m, d, q);
     A = d.M.selfadjointView<Eigen::Upper>();
-    Vec tau(m.nv);
-    torque(q, v, !has_damper, tau);
-    tau -= pinocchio::nonLinearEffects(m, d, q, v);
-    Vec c = Vec::Zero(m.nv);
-    if (free_flyer) c.head<3>() = Vec3(v.segment<3>(3)).cross(Vec3(v.head<3>()));
+    torque(q, v, !has_damper, torques);
+    torques -= pinocchio::nonLinearEffects(m, d, q, v);
+    bias.setZero();
+    if (free_flyer) bias.head<3>() = Vec3(v.segment<3>(3)).cross(Vec3(v.head<3>()));
     if (has_damper) {
-      Mat K = A;
+      K = A;
       K.diagonal() += h * damper;
       llt.compute(K);
-      vfree = llt.solve(A * (v + h * c) + h * tau);
+      vfree = llt.solve(A * (v + h * bias) + h * torques);
     } else {
       llt.compute(A);
-      vfree = v + h * (llt.solve(tau) + c);
+      vfree = v + h * (llt.solve(torques) + bias);
     }
     return llt.info() == Eigen::Success && vfree.allFinite();
   }
@@ -235,7 +236,7 @@ bool cone_solve(const Mat& G, const Vec& g, const std::vector<double>& mus, doub
     const double top = G.diagonal().cwiseAbs().maxCoeff();
     Vec x(n);
     Eigen::LLT<Mat> stick(G);
-    const double pivot = stick.info() == Eigen::Success ? Mat(stick.matrixL()).diagonal().minCoeff() : 0.0;
+    const double pivot = stick.info() == Eigen::Success ? stick.matrixLLT().diagonal().minCoeff() : 0.0;
     if (pivot * pivot > kSingular * top) {
       x = stick.solve(-g);
     } else {
@@ -342,7 +343,7 @@ PyObject* contact_steps(PyObject*, PyObject* const* args, Py_ssize_t nargs) {
   const Py_ssize_t capacity = brows.buffer.len / 8 / width;
 
   Run run{m, d, {}, Vec(nv), Vec(nv), Vec(nq), Vec(nv), par[kBand], par[kTolerance], par[kKp], par[kKd],
-          par[kDamping], par[kFreeFlyer] != 0.0, par[kHasPd] != 0.0, par[kHasDamper] != 0.0, Data::Matrix6x(6, nv)};
+          par[kDamping], par[kFreeFlyer] != 0.0, par[kHasPd] != 0.0, par[kHasDamper] != 0.0, Data::Matrix6x(6, nv), Vec(nv), Vec(nv), Mat(nv, nv)};
   for (Eigen::Index i = 0; i < nv; ++i) {
     run.tau0[i] = vtau(i);
     run.damper[i] = vdamper(i);

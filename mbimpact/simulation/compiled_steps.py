@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 
 from ..mechanism import front
 from .run import RunState
-from .scene_contacts import SceneContact
 
 __all__ = ["CompiledSteps", "compiled_steps", "REASONS"]
 
@@ -69,7 +68,7 @@ def compiled_steps(state: RunState) -> CompiledSteps | None:
     if native is None or not hasattr(native, "contact_steps") or kin.collisions is not None or kin.points is None:
         return None
     points = kin.points
-    if points.moving or points.curved or not all(isinstance(c, SceneContact) for c in state.scene.contacts):
+    if points.moving or points.curved:  # no collision pairs: every contact is a frame contact
         return None
     return CompiledSteps(state, native)
 

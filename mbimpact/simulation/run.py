@@ -129,6 +129,7 @@ class RunState:
         self.next_sample = 1
         self.out_t: list[float] = []
         self.out_contact: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
+        self.out_energy: list[float | None] = []  # where the run computed it (a passive run checks it)
         self.out_q: list[NDArray[np.float64]] = []
         self.out_v: list[NDArray[np.float64]] = []
         self.out_active: list[tuple[bool, ...]] = []
@@ -247,8 +248,10 @@ class RunState:
         self.out_v.append(v.copy())
         self.out_active.append(tuple(self.active))
         self.out_forces.append(self.forces.copy() if any(self.active) else np.zeros((self.nc, 3)))
+        # the energy where a passive run checks it (finish() then reuses it); the state is recorded first
+        self.out_energy.append(None)
         if self.passive:
-            self.check_energy(t, q, v)
+            self.out_energy[-1] = self.check_energy(t, q, v)
 
     def energy(self, q: NDArray[np.float64], v: NDArray[np.float64]) -> float:
         """Kinetic plus potential energy at (q, v) [J]."""
@@ -258,15 +261,16 @@ class RunState:
             out += float(pin.computePotentialEnergy(self.model, self.energy_data, q))
         return out
 
-    def check_energy(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> None:
+    def check_energy(self, t: float, q: NDArray[np.float64], v: NDArray[np.float64]) -> float:
         """Stop a passive run (status "energy_growth") whose energy rose above its start by more than the
         flight's integration error (twice the fuzzers' bound of 2 rtol per free step, of the scale),
         :data:`ENERGY_SLACK` of the scale and, after persistent contact, the first-order error of its steps
-        (:data:`CONTACT_ENERGY_RATE`). The state was recorded: the output ends where it grew."""
+        (:data:`CONTACT_ENERGY_RATE`). The state was recorded: the output ends where it grew. Returns the
+        energy at (q, v)."""
         e = self.energy(q, v)
         if self.energy0 is None:
             self.energy0 = e
-            return
+            return e
         rtol = max(self.scene.rtol, 100 * np.finfo(float).eps)
         scale = abs(self.energy0) + abs(e) + 1.0
         slack = scale * (ENERGY_SLACK + 4.0 * rtol * (self.work["free_steps"] + 1))
@@ -277,6 +281,7 @@ class RunState:
             raise Stop("energy_growth", f"the energy of a passive scene rose by {e - self.energy0:.3g} J (from "
                                         f"{self.energy0:.9g} J to {e:.9g} J) by t = {t:.9g}, beyond its integration "
                                         f"error ({slack:.3g} J): a defect of the run; please report the scene")
+        return e
 
     def event(self, e: ContactEvent) -> None:
         self.events.append(e)

@@ -23,7 +23,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import pinocchio as pin
 from numpy.typing import NDArray
 
 from ..errors import ImpactError, IntegrationError, ParameterError
@@ -98,12 +97,11 @@ class _Run:
         rates = np.empty((len(T), self.state.nc))
         energy = np.empty(len(T))
         known = [self.state.out_contact[j] for j in order]
+        energies = [self.state.out_energy[j] for j in order]
         for k, (t, q, v) in enumerate(zip(T, Q, V)):
-            sample = known[k]
+            sample, e = known[k], energies[k]
             gaps[k], rates[k] = self.state.kin.rates(q, v, float(t)) if sample is None else sample
-            energy[k] = pin.computeKineticEnergy(self.state.model, self.state.data, q, v)
-            if self.state.scene.gravity:
-                energy[k] += pin.computePotentialEnergy(self.state.model, self.state.data, q)
+            energy[k] = self.state.energy(q, v) if e is None else e
         self.state.work["surface_motion"] += self.state.kin.surface_evaluations
         if self.state.kin.collision_queries:
             self.state.work["collision_queries"] += self.state.kin.collision_queries
